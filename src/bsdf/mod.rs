@@ -1,0 +1,207 @@
+//! The seed's BSDF: Lambert diffuse plus a GGX (Trowbridge-Reitz) microfacet
+//! specular lobe, all in the local shading frame (normal = +z).
+//!
+//!   f(wo, wi) = kd · baseColor/π + D(h)·F(wo·h)·G(wo, wi) / (4 (n·wo)(n·wi))
+//!   D: GGX with α = roughness²
+//!   G: Schlick-GGX in Smith's separable form, k = (α+1)²/8
+//!   F: Fresnel-Schlick with F0 = mix(0.04, baseColor, metallic)
+//!   kd = (1 − F)(1 − metallic)
+//!
+//! Each lobe keeps `eval`, `sample` and `pdf` side by side. The material picks
+//! a lobe with probability `spec_probability` and reports the mixture pdf, so
+//! `f·cos/pdf` is an unbiased one-sample estimate whatever the choice.
+
+use crate::material::Material;
+use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// One sampled direction with its BSDF value and (solid angle) pdf.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    pub f: Vec3,
+    pub pdf: f32,
+}
+
+/// Smallest α used: below it D(h) overflows f32 for a perfectly aligned h.
+/// Roughness 0 is treated as α = 1e-4 (a near mirror) in the seed model.
+pub const MIN_ALPHA: f32 = 1e-4;
+
+#[inline]
+fn cos_theta(w: Vec3) -> f32 {
+    w.z
+}
+
+pub fn fresnel_schlick(f0: Vec3, cos: f32) -> Vec3 {
+    let m = (1.0 - cos.clamp(0.0, 1.0)).powi(5);
+    f0 + (Vec3::ONE - f0) * m
+}
+
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+// ---------------------------------------------------------------- Lambert
+
+pub mod lambert {
+    use super::*;
+
+    /// f = albedo / π on the upper hemisphere.
+    pub fn eval(albedo: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+        if cos_theta(wo) <= 0.0 || cos_theta(wi) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        albedo / PI
+    }
+
+    pub fn sample(u: Vec2) -> Vec3 {
+        cosine_hemisphere(u)
+    }
+
+    pub fn pdf(wo: Vec3, wi: Vec3) -> f32 {
+        if cos_theta(wo) <= 0.0 {
+            return 0.0;
+        }
+        cosine_hemisphere_pdf(cos_theta(wi))
+    }
+}
+
+// ---------------------------------------------------------------- GGX
+
+pub mod ggx {
+    use super::*;
+
+    /// GGX normal distribution D(h) = α² / (π ((n·h)²(α²−1) + 1)²) for a
+    /// local unit half vector h. The bracket is written cos²·α² + sin² with
+    /// sin² = hx² + hy², which has no cancellation as α → 0 and h → n.
+    pub fn d(h: Vec3, alpha: f32) -> f32 {
+        if h.z <= 0.0 {
+            return 0.0;
+        }
+        let a2 = alpha * alpha;
+        let denom = h.z * h.z * a2 + (h.x * h.x + h.y * h.y);
+        a2 / (PI * denom * denom)
+    }
+
+    /// Schlick-GGX masking for one direction, G1 = n·v / (n·v (1−k) + k).
+    pub fn g1_schlick(cos_v: f32, k: f32) -> f32 {
+        cos_v / (cos_v * (1.0 - k) + k)
+    }
+
+    /// The seed's remapping k = (α+1)²/8.
+    pub fn seed_k(alpha: f32) -> f32 {
+        (alpha + 1.0) * (alpha + 1.0) / 8.0
+    }
+
+    /// Specular term D·F·G / (4 (n·wo)(n·wi)), given F already evaluated.
+    pub fn eval(alpha: f32, fresnel: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+        let (co, ci) = (cos_theta(wo), cos_theta(wi));
+        if co <= 0.0 || ci <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let h = (wo + wi).normalize_or_zero();
+        let k = seed_k(alpha);
+        let g = g1_schlick(co, k) * g1_schlick(ci, k);
+        fresnel * (d(h, alpha) * g / (4.0 * co * ci))
+    }
+
+    /// A half vector drawn from D(h)(n·h). The seed writes
+    /// θ_h = arccos sqrt((1−ε)/(ε(α²−1)+1)); the same angle is
+    /// tan²θ_h = α² ε / (1−ε), which stays accurate for tiny α and for ε → 1.
+    pub fn sample_half(u: Vec2, alpha: f32) -> Vec3 {
+        let tan2 = alpha * alpha * u.x / (1.0 - u.x);
+        let cos_t = 1.0 / (1.0 + tan2).sqrt();
+        let sin_t = (tan2 / (1.0 + tan2)).sqrt();
+        let phi = 2.0 * PI * u.y;
+        Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+    }
+
+    /// Reflect wo about h; None when the result is not above the surface.
+    pub fn sample(wo: Vec3, u: Vec2, alpha: f32) -> Option<Vec3> {
+        let h = sample_half(u, alpha);
+        let wi = 2.0 * wo.dot(h) * h - wo;
+        (cos_theta(wi) > 0.0).then_some(wi)
+    }
+
+    /// pdf(wi) = D(h)(n·h) / (4 |wo·h|): the half-vector pdf times the
+    /// Jacobian of reflection.
+    pub fn pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
+        if cos_theta(wo) <= 0.0 || cos_theta(wi) <= 0.0 {
+            return 0.0;
+        }
+        let h = (wo + wi).normalize_or_zero();
+        let wo_h = wo.dot(h);
+        if wo_h <= 0.0 {
+            return 0.0;
+        }
+        d(h, alpha) * h.z / (4.0 * wo_h)
+    }
+}
+
+// ---------------------------------------------------------------- the material
+
+/// The seed material evaluated for one shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct SeedBsdf {
+    pub base_color: Vec3,
+    pub metallic: f32,
+    pub alpha: f32,
+    pub f0: Vec3,
+    /// Probability of sampling the specular lobe, from the lobes' expected
+    /// reflectance at this wo (see `new`).
+    pub spec_probability: f32,
+}
+
+impl SeedBsdf {
+    pub fn new(m: &Material, wo: Vec3) -> Self {
+        let r = m.roughness.clamp(0.0, 1.0);
+        let alpha = (r * r).max(MIN_ALPHA);
+        let metallic = m.metallic.clamp(0.0, 1.0);
+        let base = m.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+        let f0 = Vec3::splat(0.04).lerp(base, metallic);
+        // Lobe weights: specular ≈ Fresnel at the viewing angle, diffuse ≈ what
+        // is left times the diffuse albedo. A lobe of zero weight is never picked.
+        let w_spec = luminance(fresnel_schlick(f0, cos_theta(wo)));
+        let w_diff = (1.0 - metallic) * luminance(base) * (1.0 - w_spec);
+        let spec_probability = if w_spec + w_diff > 0.0 { w_spec / (w_spec + w_diff) } else { 1.0 };
+        SeedBsdf { base_color: base, metallic, alpha, f0, spec_probability }
+    }
+
+    /// f(wo, wi), without the cosine.
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if cos_theta(wo) <= 0.0 || cos_theta(wi) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let h = (wo + wi).normalize_or_zero();
+        let f = fresnel_schlick(self.f0, wo.dot(h));
+        let kd = (Vec3::ONE - f) * (1.0 - self.metallic);
+        kd * lambert::eval(self.base_color, wo, wi) + ggx::eval(self.alpha, f, wo, wi)
+    }
+
+    /// Mixture pdf of the two sampling strategies.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let p = self.spec_probability;
+        p * ggx::pdf(wo, wi, self.alpha) + (1.0 - p) * lambert::pdf(wo, wi)
+    }
+
+    /// `u_lobe` picks the lobe, `u` drives it.
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if cos_theta(wo) <= 0.0 {
+            return None;
+        }
+        let wi = if u_lobe < self.spec_probability {
+            ggx::sample(wo, u, self.alpha)?
+        } else {
+            lambert::sample(u)
+        };
+        let pdf = self.pdf(wo, wi);
+        let f = self.eval(wo, wi);
+        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample { wi, f, pdf })
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod chi2;
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,183 @@
+//! Sampling-against-pdf, normalisation, finiteness, energy and reciprocity
+//! tests of every lobe and of the seed material.
+
+use super::chi2::{chi2_test, dir_at, u2};
+use super::*;
+use crate::material::Material;
+use crate::rng::Rng;
+
+fn material(base: Vec3, metallic: f32, roughness: f32) -> Material {
+    Material { base_color: base, metallic, roughness, ..Material::default() }
+}
+
+/// With ~30 chi-square tests in the suite, a per-test level of 1e-4 keeps
+/// the family-wise false alarm rate under 0.3% while a wrong pdf (p ≪ 1e-6
+/// at a million samples) still fails.
+const P_MIN: f64 = 1e-4;
+const N: usize = 1_000_000;
+
+#[test]
+fn lambert_sampling_matches_pdf() {
+    let wo = dir_at(30.0);
+    let r = chi2_test(N, 1, |rng| Some(lambert::sample(u2(rng))), |wi| lambert::pdf(wo, wi));
+    assert!(r.p_value > P_MIN, "p = {} (χ² {} dof {})", r.p_value, r.statistic, r.dof);
+    assert!((r.pdf_integral - 1.0).abs() < 1e-3, "∫pdf = {}", r.pdf_integral);
+}
+
+#[test]
+fn ggx_sampling_matches_pdf() {
+    for roughness in [0.3f32, 0.5, 1.0] {
+        let alpha = roughness * roughness;
+        for theta in [0.0f32, 45.0, 80.0] {
+            let wo = dir_at(theta);
+            let r = chi2_test(N, 2, |rng| ggx::sample(wo, u2(rng), alpha), |wi| ggx::pdf(wo, wi, alpha));
+            assert!(r.p_value > P_MIN, "roughness {roughness} θo {theta}: p = {} (χ² {} dof {})", r.p_value, r.statistic, r.dof);
+            // The pdf integrates to the fraction of samples that stay above
+            // the surface (1 at normal incidence for a narrow lobe).
+            assert!((r.pdf_integral - r.success_fraction).abs() < 5e-3,
+                "roughness {roughness} θo {theta}: ∫pdf {} vs success {}", r.pdf_integral, r.success_fraction);
+            assert!(r.pdf_integral <= 1.0 + 2e-3);
+        }
+    }
+}
+
+#[test]
+fn ggx_half_vector_pdf_integrates_to_one() {
+    // ∫ D(h) (n·h) dω_h = 1 is GGX's normalisation; check it numerically on a
+    // fine θ grid for smooth and rough lobes alike.
+    for alpha in [1e-3f32, 0.01, 0.1, 0.5, 1.0] {
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            // Substitute t = tan θ / α to resolve the narrow peak: θ = atan(α t).
+            let t = (i as f64 + 0.5) / n as f64 * 2000.0;
+            let dt = 2000.0 / n as f64;
+            let theta = ((alpha as f64) * t).atan();
+            let dtheta = alpha as f64 / (1.0 + (alpha as f64 * t).powi(2)) * dt;
+            let h = Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32);
+            sum += ggx::d(h, alpha) as f64 * theta.cos() * theta.sin() * dtheta * 2.0 * std::f64::consts::PI;
+        }
+        assert!((sum - 1.0).abs() < 2e-3, "α {alpha}: ∫D cos = {sum}");
+    }
+}
+
+#[test]
+fn seed_material_sampling_matches_pdf() {
+    for (base, metallic) in [(Vec3::new(0.8, 0.3, 0.2), 0.0f32), (Vec3::new(1.0, 0.7, 0.3), 1.0), (Vec3::splat(0.5), 0.5)] {
+        for roughness in [0.3f32, 0.6, 1.0] {
+            for theta in [10.0f32, 60.0, 85.0] {
+                let wo = dir_at(theta);
+                let bsdf = SeedBsdf::new(&material(base, metallic, roughness), wo);
+                let r = chi2_test(N, 3, |rng| {
+                    let ul = rng.next_f32();
+                    bsdf.sample(wo, ul, u2(rng)).map(|s| s.wi)
+                }, |wi| bsdf.pdf(wo, wi));
+                assert!(r.p_value > P_MIN, "metallic {metallic} roughness {roughness} θo {theta}: p = {}", r.p_value);
+            }
+        }
+    }
+}
+
+#[test]
+fn samples_are_finite_and_consistent_everywhere() {
+    let mut rng = Rng::new(9, 9);
+    for roughness in [0.0f32, 1e-4, 1e-3, 0.01, 0.05, 0.3, 1.0] {
+        for metallic in [0.0f32, 1.0] {
+            for cos_o in [1.0f32, 0.5, 1e-3, 1e-7] {
+                let wo = Vec3::new((1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o);
+                let bsdf = SeedBsdf::new(&material(Vec3::new(0.9, 0.5, 0.1), metallic, roughness), wo);
+                for _ in 0..20_000 {
+                    let ul = rng.next_f32();
+                    if let Some(s) = bsdf.sample(wo, ul, rng.next_2d()) {
+                        let w = s.f * s.wi.z / s.pdf;
+                        assert!(w.is_finite() && w.min_element() >= 0.0, "r {roughness} m {metallic} cos {cos_o}: {w}");
+                        assert!((s.pdf - bsdf.pdf(wo, s.wi)).abs() <= 1e-4 * s.pdf);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// E[f cos / pdf] over the sampler: the directional albedo.
+fn albedo(bsdf: &SeedBsdf, wo: Vec3, n: usize, seed: u64) -> Vec3 {
+    let mut rng = Rng::new(seed, 5);
+    let mut sum = Vec3::ZERO;
+    for _ in 0..n {
+        let ul = rng.next_f32();
+        if let Some(s) = bsdf.sample(wo, ul, rng.next_2d()) {
+            sum += s.f * s.wi.z / s.pdf;
+        }
+    }
+    sum / n as f32
+}
+
+#[test]
+fn white_lambert_reflects_exactly_one() {
+    // Cosine sampling makes every sample weight exactly albedo: no noise at all.
+    let mut rng = Rng::new(4, 4);
+    let wo = dir_at(40.0);
+    for _ in 0..10_000 {
+        let wi = lambert::sample(rng.next_2d());
+        if wi.z <= 0.0 {
+            continue;
+        }
+        let w = lambert::eval(Vec3::ONE, wo, wi) * wi.z / lambert::pdf(wo, wi);
+        assert!((w - Vec3::ONE).abs().max_element() < 1e-5);
+    }
+}
+
+#[test]
+fn ggx_lobe_never_gains_energy() {
+    // A white metal is the GGX lobe alone with F = 1: single scattering with
+    // Schlick-GGX masking can only lose energy.
+    for roughness in [0.0f32, 0.05, 0.3, 0.7, 1.0] {
+        for theta in [0.0f32, 45.0, 75.0, 89.0] {
+            let wo = dir_at(theta);
+            let bsdf = SeedBsdf::new(&material(Vec3::ONE, 1.0, roughness), wo);
+            let a = albedo(&bsdf, wo, 200_000, 11).max_element();
+            // 200k samples of a weight in [0, 1]: 0.01 is beyond 5σ.
+            assert!(a <= 1.0 + 0.01, "roughness {roughness} θo {theta}: albedo {a}");
+            // k = (α+1)²/8 stays ≈ 1/8 as α → 0, so G1 never reaches 1 and
+            // the seed darkens grazing mirrors (0.015 at roughness 0, 89°);
+            // only away from grazing is the lobe bright.
+            if theta <= 45.0 {
+                assert!(a > 0.75, "implausibly dark: roughness {roughness} θo {theta}: {a}");
+            }
+        }
+    }
+}
+
+/// The seed's kd = (1 − F(wo·h)) does not subtract what the specular lobe
+/// really reflects, so a white dielectric reflects more than it receives at
+/// grazing angles. This pins the measured size of that known flaw (it is
+/// the reason the Principled model exists) so a change to it is noticed.
+#[test]
+fn seed_dielectric_energy_gain_is_the_known_one() {
+    let mut worst = 0.0f32;
+    for roughness in [0.05f32, 0.3, 0.7, 1.0] {
+        for theta in [0.0f32, 45.0, 75.0, 89.0] {
+            let wo = dir_at(theta);
+            let bsdf = SeedBsdf::new(&material(Vec3::ONE, 0.0, roughness), wo);
+            let a = albedo(&bsdf, wo, 200_000, 11).max_element();
+            assert!(a > 0.8, "roughness {roughness} θo {theta}: {a}");
+            worst = worst.max(a);
+        }
+    }
+    // Measured: 1.09 at roughness 0.05, θo = 75°.
+    assert!(worst > 1.03 && worst < 1.15, "worst white-dielectric albedo {worst}");
+}
+
+#[test]
+fn seed_material_is_reciprocal() {
+    let mut rng = Rng::new(6, 6);
+    for _ in 0..10_000 {
+        let a = crate::sampling::cosine_hemisphere(rng.next_2d());
+        let b = crate::sampling::cosine_hemisphere(rng.next_2d());
+        let m = material(Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()), rng.next_f32(), rng.next_f32().max(0.05));
+        // The lobe choice depends on wo, the BSDF value must not.
+        let fa = SeedBsdf::new(&m, a).eval(a, b);
+        let fb = SeedBsdf::new(&m, b).eval(b, a);
+        assert!((fa - fb).abs().max_element() <= 1e-4 * fa.max_element().max(1.0), "{fa} vs {fb}");
+    }
+}

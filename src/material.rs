@@ -1,0 +1,47 @@
+//! A material as plain data: glTF pbrMetallicRoughness factors and emission.
+
+use glam::Vec3;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear Rec.709 reflectance, each channel in [0, 1].
+    pub base_color: Vec3,
+    pub metallic: f32,
+    /// Perceptual roughness; the microfacet α is roughness².
+    pub roughness: f32,
+    /// Emitted radiance in W·sr⁻¹·m⁻²: emissiveFactor × KHR_materials_emissive_strength.
+    pub emission: Vec3,
+    /// Emitters emit from both faces only when double-sided.
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    /// glTF 2.0's default material (spec §3.9.6): white, metallic 1, roughness 1.
+    fn default() -> Self {
+        Material {
+            name: "glTF default".into(),
+            base_color: Vec3::ONE,
+            metallic: 1.0,
+            roughness: 1.0,
+            emission: Vec3::ZERO,
+            double_sided: false,
+        }
+    }
+}
+
+impl Material {
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+
+    /// Radiance leaving the front face (or either face when double-sided).
+    #[inline]
+    pub fn emitted(&self, front_face: bool) -> Vec3 {
+        if front_face || self.double_sided {
+            self.emission
+        } else {
+            Vec3::ZERO
+        }
+    }
+}

@@ -1,0 +1,150 @@
+//! Sampling routines and the local shading frame. Local frame: the normal is +z.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+
+/// An orthonormal basis around a unit normal (Duff et al. 2017, branchless).
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub t: Vec3,
+    pub b: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        Frame {
+            t: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            b: Vec3::new(b, sign + n.y * n.y * a, -n.y),
+            n,
+        }
+    }
+
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.t * v.x + self.b * v.y + self.n * v.z
+    }
+}
+
+/// Shirley-Chiu concentric map from the unit square to the unit disk.
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Cosine-weighted direction on the +z hemisphere; pdf = cos θ / π.
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) / PI
+}
+
+/// Uniform barycentrics (b1, b2) on a triangle; b0 = 1 − b1 − b2.
+pub fn uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(1.0 - su, u.y * su)
+}
+
+/// A discrete distribution over items by weight, sampled by binary search of
+/// the cumulative sum.
+#[derive(Clone, Debug, Default)]
+pub struct Distribution1D {
+    cdf: Vec<f64>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Weights must be finite and non-negative; the caller filters others out.
+    pub fn new(weights: impl IntoIterator<Item = f64>) -> Self {
+        let mut cdf = Vec::new();
+        let mut total = 0.0;
+        for w in weights {
+            debug_assert!(w.is_finite() && w >= 0.0);
+            total += w;
+            cdf.push(total);
+        }
+        Distribution1D { cdf, total }
+    }
+
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty() || self.total <= 0.0
+    }
+
+    /// Index whose interval contains u·total; never an item of zero weight.
+    pub fn sample(&self, u: f32) -> usize {
+        let target = u as f64 * self.total;
+        let i = self.cdf.partition_point(|&c| c <= target);
+        i.min(self.cdf.len() - 1)
+    }
+
+    pub fn probability(&self, i: usize) -> f64 {
+        let prev = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        (self.cdf[i] - prev) / self.total
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    #[test]
+    fn frame_is_orthonormal_for_awkward_normals() {
+        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.0, -1e-8, -1.0).normalize(), Vec3::new(1.0, 2.0, -3.0).normalize()] {
+            let f = Frame::from_normal(n);
+            assert!((f.t.length() - 1.0).abs() < 1e-5 && (f.b.length() - 1.0).abs() < 1e-5);
+            assert!(f.t.dot(f.b).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5 && f.b.dot(n).abs() < 1e-5);
+            let v = Vec3::new(0.3, -0.5, 0.8);
+            assert!((f.to_local(f.to_world(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn cosine_hemisphere_mean_cosine_is_two_thirds() {
+        let mut rng = Rng::new(1, 1);
+        let n = 100_000;
+        let mut sum = 0.0;
+        for _ in 0..n {
+            let w = cosine_hemisphere(rng.next_2d());
+            assert!(w.z >= 0.0 && (w.length() - 1.0).abs() < 1e-4);
+            sum += w.z as f64;
+        }
+        // E[cos] under cos/π is 2/3; its std is 0.236, so the std error is 7.5e-4.
+        assert!((sum / n as f64 - 2.0 / 3.0).abs() < 4e-3);
+    }
+
+    #[test]
+    fn distribution_never_picks_zero_weight_and_matches_probabilities() {
+        let d = Distribution1D::new([0.0, 1.0, 0.0, 3.0, 0.0]);
+        assert_eq!(d.sample(0.0), 1);
+        assert_eq!(d.sample(0.2499), 1);
+        assert_eq!(d.sample(0.25), 3);
+        assert_eq!(d.sample(0.99999), 3);
+        assert!((d.probability(3) - 0.75).abs() < 1e-12);
+    }
+}
