@@ -127,10 +127,28 @@ fn white_lambert_reflects_exactly_one() {
     }
 }
 
+/// ∫ f(wo, wi) cos θi dωi by midpoint quadrature in (θ, φ).
+fn albedo_quadrature(bsdf: &SeedBsdf, wo: Vec3) -> Vec3 {
+    let (nt, np) = (600, 300);
+    let dt = std::f32::consts::FRAC_PI_2 / nt as f32;
+    let dp = 2.0 * std::f32::consts::PI / np as f32;
+    let mut sum = Vec3::ZERO;
+    for i in 0..nt {
+        let t = (i as f32 + 0.5) * dt;
+        for j in 0..np {
+            let p = (j as f32 + 0.5) * dp;
+            let wi = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+            sum += bsdf.eval(wo, wi) * wi.z * t.sin() * dt * dp;
+        }
+    }
+    sum
+}
+
 #[test]
-fn ggx_lobe_never_gains_energy() {
-    // A white metal is the GGX lobe alone with F = 1: single scattering with
-    // Schlick-GGX masking can only lose energy.
+fn ggx_lobe_never_gains_energy_and_estimator_matches_quadrature() {
+    // A white metal is the GGX lobe alone with F = 1: single scattering can
+    // only lose energy. (The seed's k = (α+1)²/8 stays ≈ 1/8 as α → 0, so it
+    // loses a lot at grazing angles: measured 0.015 at roughness 0, 89°.)
     for roughness in [0.0f32, 0.05, 0.3, 0.7, 1.0] {
         for theta in [0.0f32, 45.0, 75.0, 89.0] {
             let wo = dir_at(theta);
@@ -138,11 +156,11 @@ fn ggx_lobe_never_gains_energy() {
             let a = albedo(&bsdf, wo, 200_000, 11).max_element();
             // 200k samples of a weight in [0, 1]: 0.01 is beyond 5σ.
             assert!(a <= 1.0 + 0.01, "roughness {roughness} θo {theta}: albedo {a}");
-            // k = (α+1)²/8 stays ≈ 1/8 as α → 0, so G1 never reaches 1 and
-            // the seed darkens grazing mirrors (0.015 at roughness 0, 89°);
-            // only away from grazing is the lobe bright.
-            if theta <= 45.0 {
-                assert!(a > 0.5, "implausibly dark: roughness {roughness} θo {theta}: {a}");
+            if roughness >= 0.3 && theta <= 75.0 {
+                // The quadrature resolves these lobes to better than 0.5%; at
+                // 89° the lobe is too thin in φ for its grid.
+                let q = albedo_quadrature(&bsdf, wo).max_element();
+                assert!((a - q).abs() < 0.01, "roughness {roughness} θo {theta}: MC {a} vs quadrature {q}");
             }
         }
     }
