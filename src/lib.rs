@@ -1,5 +1,17 @@
 //! Glint: a physically based path tracer for glTF 2.0 scenes.
+pub mod accel;
 pub mod bsdf;
+pub mod camera;
+pub mod integrator;
+pub mod lights;
+pub mod loader;
 pub mod material;
+pub mod output;
+pub mod render;
 pub mod rng;
 pub mod sampling;
+pub mod scene;
+
+/// The default scene, compiled into the binary so it renders from anywhere.
+pub const DEFAULT_SCENE: &str = include_str!("../scenes/cornell-box.gltf");
+pub const DEFAULT_SCENE_NAME: &str = "scenes/cornell-box.gltf (embedded)";

@@ -1,0 +1,71 @@
+//! A glTF perspective camera: it looks down its node's −Z with +Y up.
+
+use glam::{Mat4, Vec2, Vec3};
+
+#[derive(Clone, Debug)]
+pub struct Camera {
+    pub name: String,
+    pub position: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    /// The file's aspect ratio (width / height), used only to pick a default
+    /// image height; the image's own aspect ratio shapes the frustum.
+    pub aspect_ratio: Option<f32>,
+}
+
+impl Camera {
+    /// From the camera node's world transform (scale is removed).
+    pub fn from_world(name: String, world: &Mat4, yfov: f32, aspect_ratio: Option<f32>) -> Result<Self, String> {
+        if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
+            return Err(format!("camera '{name}' has yfov {yfov}, which must be in (0, π)"));
+        }
+        let position = world.w_axis.truncate();
+        let forward = (-world.z_axis.truncate()).normalize_or_zero();
+        let right = (world.x_axis.truncate() - forward * world.x_axis.truncate().dot(forward)).normalize_or_zero();
+        let up = right.cross(forward);
+        if !position.is_finite() || forward == Vec3::ZERO || right == Vec3::ZERO || !up.is_finite() {
+            return Err(format!("camera '{name}' has a degenerate or non-finite transform"));
+        }
+        let aspect_ratio = aspect_ratio.filter(|a| a.is_finite() && *a > 0.0);
+        Ok(Camera { name, position, right, up, forward, yfov, aspect_ratio })
+    }
+
+    /// A primary ray through a point on the image plane given in pixels
+    /// (x right, y down, continuous: the pixel (i, j) spans [i, i+1)×[j, j+1)).
+    pub fn ray(&self, pixel: Vec2, width: u32, height: u32) -> (Vec3, Vec3) {
+        let tan_half = (0.5 * self.yfov).tan();
+        let aspect = width as f32 / height as f32;
+        let sx = (2.0 * pixel.x / width as f32 - 1.0) * tan_half * aspect;
+        let sy = (1.0 - 2.0 * pixel.y / height as f32) * tan_half;
+        let dir = (self.forward + self.right * sx + self.up * sy).normalize();
+        (self.position, dir)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_ray_looks_down_minus_z_and_corners_match_fov() {
+        let cam = Camera::from_world("c".into(), &Mat4::IDENTITY, 90f32.to_radians(), None).unwrap();
+        let (_, d) = cam.ray(Vec2::new(50.0, 50.0), 100, 100);
+        assert!((d - Vec3::NEG_Z).length() < 1e-6);
+        // Top edge centre at 45° above the axis for a 90° vertical fov.
+        let (_, d) = cam.ray(Vec2::new(50.0, 0.0), 100, 100);
+        assert!((d.y - d.z.abs()).abs() < 1e-6 && d.y > 0.0);
+        // Right of the image is +X.
+        let (_, d) = cam.ray(Vec2::new(100.0, 50.0), 200, 100);
+        assert!(d.x > 0.0 && (d.x / -d.z - 2.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn rejects_bad_fov_and_degenerate_transform() {
+        assert!(Camera::from_world("c".into(), &Mat4::IDENTITY, 0.0, None).is_err());
+        assert!(Camera::from_world("c".into(), &Mat4::IDENTITY, f32::NAN, None).is_err());
+        assert!(Camera::from_world("c".into(), &Mat4::ZERO, 1.0, None).is_err());
+    }
+}

@@ -1,0 +1,230 @@
+//! The seed's path tracer:
+//!
+//!   L = L_emit + L_dir + L_indir
+//!
+//! * L_emit: emission seen directly, added at the camera ray's hit only.
+//! * L_dir: next-event estimation. A point x' is sampled on the emitters by
+//!   area (pdf_A = 1/A_total) and joined by a shadow ray:
+//!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
+//! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
+//!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
+//!   that light was already counted by L_dir.
+//! * Russian roulette from depth `RR_START_DEPTH` on, surviving with
+//!   probability q = min(max channel of the throughput, 0.95); `max_depth`
+//!   caps the number of scattering events (1 = direct light only).
+
+use crate::accel::{Accel, Hit};
+use crate::bsdf::SeedBsdf;
+use crate::lights::Lights;
+use crate::rng::Rng;
+use crate::sampling::Frame;
+use crate::scene::Scene;
+use glam::Vec3;
+
+pub const RR_START_DEPTH: u32 = 3;
+const RR_MAX_SURVIVAL: f32 = 0.95;
+/// Shadow rays stop this fraction short of the light sample: a margin for
+/// the intersection's own rounding, in units of the ray's length.
+const SHADOW_EPSILON: f32 = 1e-4;
+
+/// Everything a render reads: the scene and what is built from it.
+pub struct Context<'a> {
+    pub scene: &'a Scene,
+    pub accel: Accel,
+    pub lights: Lights,
+}
+
+impl<'a> Context<'a> {
+    pub fn new(scene: &'a Scene) -> (Self, std::time::Duration) {
+        let (accel, build_time) = Accel::build(&scene.triangles);
+        let lights = Lights::new(scene);
+        (Context { scene, accel, lights }, build_time)
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayCounts {
+    pub camera: u64,
+    pub bounce: u64,
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+    pub fn add(&mut self, o: &RayCounts) {
+        self.camera += o.camera;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+    }
+}
+
+/// γ(n) of Higham / pbrt: a bound on the relative error of n float operations.
+fn gamma(n: f32) -> f32 {
+    let e = f32::EPSILON * 0.5;
+    n * e / (1.0 - n * e)
+}
+
+/// Move a point off its surface by its floating-point error bound, to the
+/// side `w` leaves on, then one ulp further: the spawned ray cannot hit the
+/// surface it starts on, at any scale (pbrt-v4's OffsetRayOrigin).
+pub fn offset_origin(p: Vec3, error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    let d = n.abs().dot(error);
+    let mut offset = n * d;
+    if w.dot(n) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = po[i].next_up();
+        } else if offset[i] < 0.0 {
+            po[i] = po[i].next_down();
+        }
+    }
+    po
+}
+
+/// A point on a triangle from barycentrics, with its error bound.
+pub fn point_on_triangle(p: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
+    let b0 = 1.0 - b1 - b2;
+    let point = p[0] * b0 + p[1] * b1 + p[2] * b2;
+    let error = ((p[0] * b0).abs() + (p[1] * b1).abs() + (p[2] * b2).abs()) * gamma(7.0);
+    (point, error)
+}
+
+/// What the integrator needs of a ray's hit.
+pub struct SurfaceHit {
+    pub p: Vec3,
+    pub p_error: Vec3,
+    /// Geometric normal, on the side the ray came from.
+    pub ng: Vec3,
+    /// Shading frame; its normal is on the same side as `ng`.
+    pub frame: Frame,
+    /// Whether the ray hit the triangle's front (counter-clockwise) face.
+    pub front_face: bool,
+    pub material: u32,
+}
+
+impl SurfaceHit {
+    pub fn new(scene: &Scene, hit: &Hit, dir: Vec3) -> Self {
+        let tri = &scene.triangles[hit.triangle as usize];
+        let (p, p_error) = point_on_triangle(&tri.p, hit.b1, hit.b2);
+        let face = tri.cross().normalize();
+        let front_face = face.dot(dir) < 0.0;
+        let ng = if front_face { face } else { -face };
+        let b0 = 1.0 - hit.b1 - hit.b2;
+        let mut ns = (tri.n[0] * b0 + tri.n[1] * hit.b1 + tri.n[2] * hit.b2).normalize_or_zero();
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        // Interpolated normals can put the viewer below the shading
+        // hemisphere near silhouettes; the face normal is the honest fallback.
+        if ns == Vec3::ZERO || ns.dot(-dir) <= 0.0 {
+            ns = ng;
+        }
+        SurfaceHit { p, p_error, ng, frame: Frame::from_normal(ns), front_face, material: tri.material }
+    }
+
+    pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
+        offset_origin(self.p, self.p_error, self.ng, w)
+    }
+}
+
+/// L_dir at one surface point: one light sample and its shadow ray.
+fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let (u_pick, u) = (rng.next_f32(), rng.next_2d());
+    let Some(ls) = ctx.lights.sample(ctx.scene, u_pick, u) else { return Vec3::ZERO };
+    let to_light = ls.point - si.p;
+    let dist2 = to_light.length_squared();
+    if !(dist2 > 0.0) {
+        return Vec3::ZERO;
+    }
+    let dist = dist2.sqrt();
+    let wi = to_light / dist;
+    // A light behind the geometric surface would leak through thin walls.
+    if wi.dot(si.ng) <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let cos_light = ls.normal.dot(-wi);
+    let light_tri = &ctx.scene.triangles[ls.triangle as usize];
+    let le = ctx.scene.materials[light_tri.material as usize].emitted(cos_light > 0.0);
+    let wi_local = si.frame.to_local(wi);
+    let f = bsdf.eval(wo, wi_local);
+    if le == Vec3::ZERO || f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let origin = si.spawn_origin(wi);
+    let (_, light_error) = point_on_triangle(&light_tri.p, ls.b1, ls.b2);
+    let target = offset_origin(ls.point, light_error, ls.normal, -wi);
+    let segment = target - origin;
+    let length = segment.length();
+    rays.shadow += 1;
+    if !(length > 0.0) || ctx.accel.occluded(origin, segment / length, length * (1.0 - SHADOW_EPSILON)) {
+        return Vec3::ZERO;
+    }
+    le * f * (wi_local.z * cos_light.abs() / (dist2 * ls.pdf_area))
+}
+
+/// Radiance arriving along a camera ray.
+pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, max_depth: u32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let (mut o, mut d) = (origin, dir);
+    rays.camera += 1;
+    for depth in 0..max_depth {
+        let Some(hit) = ctx.accel.intersect(o, d, f32::INFINITY) else { break };
+        let si = SurfaceHit::new(ctx.scene, &hit, d);
+        let material = &ctx.scene.materials[si.material as usize];
+        if depth == 0 {
+            l += beta * material.emitted(si.front_face);
+        }
+        let wo = si.frame.to_local(-d);
+        let bsdf = SeedBsdf::new(material, wo);
+        l += beta * direct_light(ctx, &si, &bsdf, wo, rng, rays);
+
+        if depth + 1 == max_depth {
+            break;
+        }
+        let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { break };
+        let wi = si.frame.to_world(s.wi);
+        // Directions below the geometric surface (possible with shading
+        // normals) would pass through it.
+        if wi.dot(si.ng) <= 0.0 {
+            break;
+        }
+        beta *= s.f * (s.wi.z / s.pdf);
+        if depth + 1 >= RR_START_DEPTH {
+            let q = beta.max_element().min(RR_MAX_SURVIVAL);
+            if !(rng.next_f32() < q) {
+                break;
+            }
+            beta /= q;
+        }
+        o = si.spawn_origin(wi);
+        d = wi;
+        rays.bounce += 1;
+    }
+    l
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offset_leaves_the_surface_at_every_scale() {
+        for scale in [1e-4f32, 1.0, 1e4] {
+            for shift in [0.0f32, 1e5] {
+                let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)]
+                    .map(|v| v * scale + Vec3::splat(shift));
+                let (point, error) = point_on_triangle(&p, 0.3, 0.3);
+                let up = offset_origin(point, error, Vec3::Z, Vec3::Z);
+                let down = offset_origin(point, error, Vec3::Z, -Vec3::Z);
+                // The triangle's plane is z = shift exactly.
+                assert!(up.z > shift && down.z < shift, "scale {scale} shift {shift}: {up} {down}");
+            }
+        }
+    }
+}

@@ -1,0 +1,360 @@
+//! glTF 2.0 loading (.gltf with .bin or data: URIs, and .glb).
+//!
+//! The file is read with a size cap and parsed into gltf's JSON data model;
+//! everything after that is done here with checked lookups, so no input can
+//! panic the loader. Only what the chosen scene references is read.
+
+mod accessor;
+mod buffers;
+mod glb;
+
+use crate::camera::Camera;
+use crate::material::Material;
+use crate::scene::{Scene, Triangle};
+use accessor::{read_floats, read_indices, Buffers};
+use glam::{Mat3, Mat4, Quat, Vec3};
+use gltf::json::accessor::Type;
+use gltf::json::mesh::{Mode, Semantic};
+use gltf::json::validation::Checked;
+use gltf::json::Root;
+use std::collections::HashMap;
+use std::io::Read;
+use std::path::Path;
+
+/// Largest scene file Glint reads.
+pub const MAX_SCENE_BYTES: u64 = 2 << 30;
+
+/// Extensions Glint understands or can safely ignore when a file requires them.
+const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_lights_punctual",
+];
+
+#[derive(Debug, thiserror::Error)]
+#[error("{file}: {message}")]
+pub struct LoadError {
+    pub file: String,
+    pub message: String,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Which of the file's scenes; default: the file's `scene`, else 0.
+    pub scene_index: Option<usize>,
+    /// A camera by node or camera name; default: the first perspective
+    /// camera met walking the scene graph depth first.
+    pub camera: Option<String>,
+}
+
+pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
+    let fail = |message: String| LoadError { file: path.display().to_string(), message };
+    let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(fail("not a regular file".into()));
+    }
+    if meta.len() > MAX_SCENE_BYTES {
+        return Err(fail(format!("file is {} bytes; Glint reads scene files up to {MAX_SCENE_BYTES}", meta.len())));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SCENE_BYTES).read_to_end(&mut bytes))
+        .map_err(|e| fail(e.to_string()))?;
+    let dir = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
+    load_bytes(&bytes, dir, &path.display().to_string(), options)
+}
+
+/// Load from memory. `base_dir` is where relative URIs point (None: only
+/// data: URIs and the GLB BIN chunk may be used); `name` is used in errors.
+pub fn load_bytes(bytes: &[u8], base_dir: Option<&Path>, name: &str, options: &LoadOptions) -> Result<Scene, LoadError> {
+    load_inner(bytes, base_dir, options).map_err(|message| LoadError { file: name.to_string(), message })
+}
+
+fn load_inner(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOptions) -> Result<Scene, String> {
+    let (json, bin) = if glb::is_glb(bytes) {
+        let g = glb::parse(bytes)?;
+        (g.json, g.bin)
+    } else {
+        (bytes, None)
+    };
+    let root: Root = serde_json::from_slice(json).map_err(|e| format!("not valid glTF JSON: {e}"))?;
+    if !root.asset.version.starts_with("2.") {
+        return Err(format!("glTF version '{}' is not supported (only 2.x)", root.asset.version));
+    }
+    if let Some(ext) = root.extensions_required.iter().find(|e| !SUPPORTED_REQUIRED.contains(&e.as_str())) {
+        return Err(format!("requires extension {ext}, which Glint does not support"));
+    }
+    let mut builder = Builder {
+        root: &root,
+        buffers: Buffers::new(&root, bin, base_dir),
+        triangles: Vec::new(),
+        materials: Vec::new(),
+        material_ids: HashMap::new(),
+        cameras: Vec::new(),
+        stats: Stats::default(),
+    };
+    builder.walk_scene(options.scene_index)?;
+    let camera = builder.pick_camera(options.camera.as_deref())?;
+    let warnings = builder.warnings();
+    Ok(Scene { triangles: builder.triangles, materials: builder.materials, camera, warnings })
+}
+
+#[derive(Default)]
+struct Stats {
+    skipped_modes: HashMap<String, usize>,
+    non_finite: usize,
+    degenerate: usize,
+    bad_normals: usize,
+    dangling_indices: usize,
+    textured_materials: usize,
+}
+
+struct CameraCandidate {
+    node_name: Option<String>,
+    camera: usize,
+    world: Mat4,
+}
+
+struct Builder<'a> {
+    root: &'a Root,
+    buffers: Buffers<'a>,
+    triangles: Vec<Triangle>,
+    materials: Vec<Material>,
+    /// glTF material index (None: the default material) → ours.
+    material_ids: HashMap<Option<usize>, u32>,
+    cameras: Vec<CameraCandidate>,
+    stats: Stats,
+}
+
+fn local_transform(node: &gltf::json::scene::Node) -> Mat4 {
+    if let Some(m) = node.matrix {
+        return Mat4::from_cols_array(&m);
+    }
+    let t = node.translation.map_or(Vec3::ZERO, Vec3::from);
+    let r = node.rotation.map_or(Quat::IDENTITY, |q| Quat::from_array(q.0));
+    let s = node.scale.map_or(Vec3::ONE, Vec3::from);
+    // The file's quaternion need not be exactly unit length.
+    let r = if r.length_squared() > 0.0 && r.is_finite() { r.normalize() } else { r };
+    Mat4::from_scale_rotation_translation(s, r, t)
+}
+
+impl<'a> Builder<'a> {
+    fn walk_scene(&mut self, scene_index: Option<usize>) -> Result<(), String> {
+        let root = self.root;
+        if root.scenes.is_empty() {
+            return Err("the file has no scenes to render".into());
+        }
+        let index = scene_index.or(root.scene.map(|s| s.value())).unwrap_or(0);
+        let scene = root
+            .scenes
+            .get(index)
+            .ok_or_else(|| format!("scene {index} does not exist (the file has {})", root.scenes.len()))?;
+        // glTF node hierarchies are strict trees: a node met twice means a
+        // cycle or a shared child, both invalid.
+        let mut seen = vec![false; root.nodes.len()];
+        let mut stack: Vec<(usize, Mat4)> = scene.nodes.iter().rev().map(|n| (n.value(), Mat4::IDENTITY)).collect();
+        while let Some((index, parent)) = stack.pop() {
+            let node = root.nodes.get(index).ok_or_else(|| format!("node {index} does not exist"))?;
+            if std::mem::replace(&mut seen[index], true) {
+                return Err(format!("node {index} is reached twice (a node cycle or a shared child)"));
+            }
+            let world = parent * local_transform(node);
+            if let Some(mesh) = node.mesh {
+                self.add_mesh(mesh.value(), &world)?;
+            }
+            if let Some(camera) = node.camera {
+                self.cameras.push(CameraCandidate { node_name: node.name.clone(), camera: camera.value(), world });
+            }
+            for child in node.children.iter().flatten().rev() {
+                stack.push((child.value(), world));
+            }
+        }
+        Ok(())
+    }
+
+    fn material_id(&mut self, index: Option<usize>) -> Result<u32, String> {
+        if let Some(&id) = self.material_ids.get(&index) {
+            return Ok(id);
+        }
+        let material = match index {
+            None => Material::default(),
+            Some(i) => {
+                let m = self.root.materials.get(i).ok_or_else(|| format!("material {i} does not exist"))?;
+                if m.pbr_metallic_roughness.base_color_texture.is_some()
+                    || m.pbr_metallic_roughness.metallic_roughness_texture.is_some()
+                    || m.emissive_texture.is_some()
+                    || m.normal_texture.is_some()
+                {
+                    self.stats.textured_materials += 1;
+                }
+                convert_material(m, i)
+            }
+        };
+        let id = self.materials.len() as u32;
+        self.materials.push(material);
+        self.material_ids.insert(index, id);
+        Ok(id)
+    }
+
+    fn add_mesh(&mut self, mesh_index: usize, world: &Mat4) -> Result<(), String> {
+        let root = self.root;
+        let mesh = root.meshes.get(mesh_index).ok_or_else(|| format!("mesh {mesh_index} does not exist"))?;
+        let linear = Mat3::from_mat4(*world);
+        let normal_matrix = linear.inverse().transpose();
+        // A mirroring transform turns counter-clockwise into clockwise.
+        let flip = linear.determinant() < 0.0;
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            let what = |e: String| format!("mesh {mesh_index} primitive {pi}: {e}");
+            match prim.mode {
+                Checked::Valid(Mode::Triangles) => {}
+                Checked::Valid(mode) => {
+                    *self.stats.skipped_modes.entry(format!("{mode:?}")).or_default() += 1;
+                    continue;
+                }
+                Checked::Invalid => return Err(what("invalid primitive mode".into())),
+            }
+            let pos_index = prim
+                .attributes
+                .get(&Checked::Valid(Semantic::Positions))
+                .ok_or_else(|| what("has no POSITION attribute".into()))?;
+            let positions = read_floats(&mut self.buffers, pos_index.value(), &[Type::Vec3]).map_err(what)?;
+            let normals = match prim.attributes.get(&Checked::Valid(Semantic::Normals)) {
+                Some(n) => {
+                    let n = read_floats(&mut self.buffers, n.value(), &[Type::Vec3]).map_err(what)?;
+                    if n.count() != positions.count() {
+                        return Err(what(format!("NORMAL has {} elements, POSITION {}", n.count(), positions.count())));
+                    }
+                    Some(n)
+                }
+                None => None,
+            };
+            let vertex_count = positions.count();
+            let indices = match prim.indices {
+                Some(i) => read_indices(&mut self.buffers, i.value()).map_err(what)?,
+                None => (0..vertex_count as u32).collect(),
+            };
+            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= vertex_count) {
+                return Err(what(format!("index {bad} is out of range ({vertex_count} vertices)")));
+            }
+            self.stats.dangling_indices += indices.len() % 3;
+            let material = self.material_id(prim.material.map(|m| m.value()))?;
+            for tri in indices.chunks_exact(3) {
+                let mut order = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                if flip {
+                    order.swap(1, 2);
+                }
+                let p = order.map(|i| world.transform_point3(Vec3::from(positions.get3(i))));
+                if !p.iter().all(|v| v.is_finite()) {
+                    self.stats.non_finite += 1;
+                    continue;
+                }
+                let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+                let len = cross.length();
+                if !(len > 0.0 && len.is_finite()) {
+                    self.stats.degenerate += 1;
+                    continue;
+                }
+                let face = cross / len;
+                let n = order.map(|i| {
+                    let shading = normals.as_ref().map(|n| (normal_matrix * Vec3::from(n.get3(i))).normalize_or_zero());
+                    match shading {
+                        Some(v) if v != Vec3::ZERO && v.is_finite() => v,
+                        Some(_) => {
+                            self.stats.bad_normals += 1;
+                            face
+                        }
+                        None => face,
+                    }
+                });
+                self.triangles.push(Triangle { p, n, material });
+            }
+        }
+        Ok(())
+    }
+
+    fn pick_camera(&self, wanted: Option<&str>) -> Result<Camera, String> {
+        let root = self.root;
+        let camera_name = |c: &CameraCandidate| root.cameras.get(c.camera).and_then(|cam| cam.name.clone());
+        let candidate = match wanted {
+            Some(name) => self
+                .cameras
+                .iter()
+                .find(|c| c.node_name.as_deref() == Some(name) || camera_name(c).as_deref() == Some(name))
+                .ok_or_else(|| format!("no camera named '{name}' in the scene"))?,
+            None => self
+                .cameras
+                .iter()
+                .find(|c| root.cameras.get(c.camera).is_some_and(|cam| cam.perspective.is_some()))
+                .ok_or("the scene has no perspective camera (add one in Blender, or name one with --camera)")?,
+        };
+        let cam = root.cameras.get(candidate.camera).ok_or_else(|| format!("camera {} does not exist", candidate.camera))?;
+        let name = candidate.node_name.clone().or_else(|| cam.name.clone()).unwrap_or_else(|| format!("camera {}", candidate.camera));
+        let p = cam
+            .perspective
+            .as_ref()
+            .ok_or_else(|| format!("camera '{name}' is not a perspective camera (orthographic cameras are not supported)"))?;
+        Camera::from_world(name, &candidate.world, p.yfov, p.aspect_ratio)
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        let s = &self.stats;
+        let mut w = Vec::new();
+        let mut modes: Vec<_> = s.skipped_modes.iter().collect();
+        modes.sort();
+        for (mode, n) in modes {
+            w.push(format!("skipped {n} primitive(s) with mode {mode}: only triangles are rendered"));
+        }
+        if s.non_finite > 0 {
+            w.push(format!("dropped {} triangle(s) with NaN or infinite positions", s.non_finite));
+        }
+        if s.degenerate > 0 {
+            w.push(format!("dropped {} zero-area triangle(s)", s.degenerate));
+        }
+        if s.bad_normals > 0 {
+            w.push(format!("{} vertex normal(s) were zero or non-finite; used the face normal", s.bad_normals));
+        }
+        if s.dangling_indices > 0 {
+            w.push(format!("ignored {} trailing index(es) that do not form a whole triangle", s.dangling_indices));
+        }
+        if s.textured_materials > 0 {
+            w.push(format!("{} material(s) use textures, which are not supported yet: their factors are used", s.textured_materials));
+        }
+        w
+    }
+}
+
+fn finite_or(v: f32, default: f32) -> f32 {
+    if v.is_finite() { v } else { default }
+}
+
+/// glTF pbrMetallicRoughness → Material. Factors are clamped to the ranges
+/// glTF defines; emission is emissiveFactor × KHR_materials_emissive_strength,
+/// read as radiance in W·sr⁻¹·m⁻² (Blender's Emission Strength 1 = radiance 1).
+fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
+    let pbr = &m.pbr_metallic_roughness;
+    let bc = pbr.base_color_factor.0;
+    let base_color = Vec3::new(finite_or(bc[0], 1.0), finite_or(bc[1], 1.0), finite_or(bc[2], 1.0)).clamp(Vec3::ZERO, Vec3::ONE);
+    let strength = m
+        .extensions
+        .as_ref()
+        .and_then(|e| e.emissive_strength.as_ref())
+        .map_or(1.0, |s| finite_or(s.emissive_strength.0, 1.0).max(0.0));
+    let ef = m.emissive_factor.0;
+    let emissive = Vec3::new(finite_or(ef[0], 0.0), finite_or(ef[1], 0.0), finite_or(ef[2], 0.0)).clamp(Vec3::ZERO, Vec3::ONE);
+    Material {
+        name: m.name.clone().unwrap_or_else(|| format!("material {index}")),
+        base_color,
+        metallic: finite_or(pbr.metallic_factor.0, 1.0).clamp(0.0, 1.0),
+        roughness: finite_or(pbr.roughness_factor.0, 1.0).clamp(0.0, 1.0),
+        emission: emissive * strength,
+        double_sided: m.double_sided,
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,102 @@
+//! Image files, written atomically: to a temporary name in the same folder,
+//! then renamed, so a reader never sees a half-written image and a failed
+//! write never destroys the previous one.
+
+use anyhow::{bail, Context as _, Result};
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let tmp = temp_path(path);
+    if let Err(e) = write(&tmp) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot move the finished image into place", path.display()))
+}
+
+fn check_size(width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+    if width == 0 || height == 0 || pixels.len() != width as usize * height as usize {
+        bail!("image of {width}×{height} with {} pixels cannot be written", pixels.len());
+    }
+    Ok(())
+}
+
+/// Linear float RGBA EXR (alpha 1), scene-referred radiance.
+pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+    check_size(width, height, pixels)?;
+    write_atomically(path, |tmp| {
+        exr::prelude::write_rgba_file(tmp, width as usize, height as usize, |x, y| {
+            let p = pixels[y * width as usize + x];
+            (p.x, p.y, p.z, 1.0f32)
+        })
+        .with_context(|| format!("{}: cannot write EXR", path.display()))
+    })
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
+pub fn srgb_encode(linear: f32) -> f32 {
+    let c = linear.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// 8-bit sRGB PNG preview, clamped to [0, 1] (no tone mapping).
+pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+    check_size(width, height, pixels)?;
+    let bytes: Vec<u8> = pixels
+        .iter()
+        .flat_map(|p| p.to_array())
+        .map(|c| (srgb_encode(c) * 255.0 + 0.5) as u8)
+        .collect();
+    write_atomically(path, |tmp| {
+        image::save_buffer_with_format(tmp, &bytes, width, height, image::ColorType::Rgb8, image::ImageFormat::Png)
+            .with_context(|| format!("{}: cannot write PNG", path.display()))
+    })
+}
+
+/// Read back an RGBA EXR written by `write_exr` (for tests and tools).
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),
+        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b),
+    )
+    .with_context(|| format!("{}: cannot read EXR", path.display()))?;
+    let size = image.layer_data.size;
+    Ok((size.width() as u32, size.height() as u32, image.layer_data.channel_data.pixels.1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_round_trips_and_leaves_no_temp_file() {
+        let dir = std::env::temp_dir().join(format!("glint-out-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.exr");
+        let px: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5, 1e4)).collect();
+        write_exr(&path, 3, 2, &px).unwrap();
+        let (w, h, back) = read_exr(&path).unwrap();
+        assert_eq!((w, h), (3, 2));
+        assert_eq!(back, px);
+        write_png(&dir.join("a.png"), 3, 2, &px).unwrap();
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        assert!(write_exr(&path, 0, 2, &[]).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn srgb_curve_endpoints() {
+        assert_eq!(srgb_encode(0.0), 0.0);
+        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-6);
+        assert!((srgb_encode(0.18) - 0.4614).abs() < 1e-3);
+    }
+}

@@ -1,0 +1,122 @@
+//! The image loop: tiles of pixels in parallel, every sample filtered in one
+//! place. Each pixel sample draws from its own generator (seed, pixel,
+//! sample index), so an image is the same for any thread count or any split
+//! of its samples into passes.
+
+use crate::integrator::{radiance, Context, RayCounts};
+use crate::rng::Rng;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+pub const TILE: u32 = 16;
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub max_depth: u32,
+    pub seed: u64,
+}
+
+/// Sums of radiance samples per pixel, row-major from the top-left.
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub sum: Vec<Vec3>,
+    pub samples: u32,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Self {
+        Film { width, height, sum: vec![Vec3::ZERO; width as usize * height as usize], samples: 0 }
+    }
+
+    /// The per-pixel mean: the Monte Carlo estimate.
+    pub fn mean(&self) -> Vec<Vec3> {
+        let inv = if self.samples > 0 { 1.0 / self.samples as f32 } else { 0.0 };
+        self.sum.iter().map(|s| *s * inv).collect()
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PassStats {
+    pub rays: RayCounts,
+    /// Samples whose radiance was NaN or infinite, dropped here. A correct
+    /// integrator never produces one; the tests assert this stays zero.
+    pub discarded: u64,
+}
+
+impl PassStats {
+    pub fn add(&mut self, o: &PassStats) {
+        self.rays.add(&o.rays);
+        self.discarded += o.discarded;
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+#[error("render cancelled")]
+pub struct Cancelled;
+
+/// Render samples `samples` of every pixel and add them to `film`. A
+/// cancelled pass leaves the film untouched. `progress` receives the number
+/// of pixel samples done, from worker threads.
+pub fn render_pass(
+    ctx: &Context,
+    settings: &RenderSettings,
+    film: &mut Film,
+    samples: Range<u32>,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<PassStats, Cancelled> {
+    let (w, h) = (settings.width, settings.height);
+    assert_eq!((film.width, film.height), (w, h), "film does not match the settings");
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE))).collect();
+    let results: Vec<Option<(u32, u32, Vec<Vec3>, PassStats)>> = tiles
+        .par_iter()
+        .map(|&(x0, y0)| {
+            if cancel.load(Ordering::Relaxed) {
+                return None;
+            }
+            let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+            let mut stats = PassStats::default();
+            let mut sums = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let pixel = y as u64 * w as u64 + x as u64;
+                    let mut sum = Vec3::ZERO;
+                    for s in samples.clone() {
+                        let mut rng = Rng::for_sample(settings.seed, pixel, s as u64);
+                        let jitter = rng.next_2d();
+                        let (o, d) = ctx.scene.camera.ray(Vec2::new(x as f32, y as f32) + jitter, w, h);
+                        let l = radiance(ctx, o, d, settings.max_depth, &mut rng, &mut stats.rays);
+                        if l.is_finite() {
+                            sum += l;
+                        } else {
+                            stats.discarded += 1;
+                        }
+                    }
+                    sums.push(sum);
+                }
+            }
+            progress(sums.len() as u64 * samples.len() as u64);
+            Some((x0, y0, sums, stats))
+        })
+        .collect();
+    if cancel.load(Ordering::Relaxed) || results.iter().any(Option::is_none) {
+        return Err(Cancelled);
+    }
+    let mut total = PassStats::default();
+    for (x0, y0, sums, stats) in results.into_iter().flatten() {
+        let tw = (x0 + TILE).min(w) - x0;
+        for (i, s) in sums.iter().enumerate() {
+            let (x, y) = (x0 + i as u32 % tw, y0 + i as u32 / tw);
+            film.sum[(y * w + x) as usize] += *s;
+        }
+        total.add(&stats);
+    }
+    film.samples += samples.len() as u32;
+    Ok(total)
+}

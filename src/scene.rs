@@ -1,0 +1,34 @@
+//! The renderable scene: world-space triangles, materials and a camera.
+//! World space is glTF's: metres, Y up, right-handed.
+
+use crate::camera::Camera;
+use crate::material::Material;
+use glam::Vec3;
+
+#[derive(Clone, Debug)]
+pub struct Triangle {
+    /// World positions, counter-clockwise seen from the front face.
+    pub p: [Vec3; 3],
+    /// Unit shading normals per vertex (the face normal where the file has none).
+    pub n: [Vec3; 3],
+    pub material: u32,
+}
+
+impl Triangle {
+    /// Unnormalised face normal, pointing out of the front face.
+    pub fn cross(&self) -> Vec3 {
+        (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
+    }
+
+    pub fn area(&self) -> f32 {
+        0.5 * self.cross().length()
+    }
+}
+
+pub struct Scene {
+    pub triangles: Vec<Triangle>,
+    pub materials: Vec<Material>,
+    pub camera: Camera,
+    /// One line each; the CLI prints them, the daemon logs them.
+    pub warnings: Vec<String>,
+}
