@@ -58,7 +58,7 @@ mod tests {
         let (_, d) = cam.ray(Vec2::new(50.0, 0.0), 100, 100);
         assert!((d.y - d.z.abs()).abs() < 1e-6 && d.y > 0.0);
         // Right of the image is +X.
-        let (_, d) = cam.ray(Vec2::new(100.0, 50.0), 200, 100);
+        let (_, d) = cam.ray(Vec2::new(200.0, 50.0), 200, 100);
         assert!(d.x > 0.0 && (d.x / -d.z - 2.0).abs() < 1e-5);
     }
 

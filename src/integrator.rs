@@ -68,18 +68,16 @@ fn gamma(n: f32) -> f32 {
 
 /// Move a point off its surface by its floating-point error bound, to the
 /// side `w` leaves on, then one ulp further: the spawned ray cannot hit the
-/// surface it starts on, at any scale (pbrt-v4's OffsetRayOrigin).
+/// surface it starts on, at any scale (pbrt-v4's OffsetRayOrigin). The ulp
+/// step follows the normal, not the offset, so an exactly representable
+/// point (error bound 0) still leaves its plane.
 pub fn offset_origin(p: Vec3, error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
-    let d = n.abs().dot(error);
-    let mut offset = n * d;
-    if w.dot(n) < 0.0 {
-        offset = -offset;
-    }
-    let mut po = p + offset;
+    let side = if w.dot(n) < 0.0 { -n } else { n };
+    let mut po = p + side * n.abs().dot(error);
     for i in 0..3 {
-        if offset[i] > 0.0 {
+        if side[i] > 0.0 {
             po[i] = po[i].next_up();
-        } else if offset[i] < 0.0 {
+        } else if side[i] < 0.0 {
             po[i] = po[i].next_down();
         }
     }

@@ -10,6 +10,9 @@ pub struct Material {
     pub metallic: f32,
     /// Perceptual roughness; the microfacet α is roughness².
     pub roughness: f32,
+    /// KHR_materials_specular specularFactor: scales the dielectric specular
+    /// layer (0 makes a non-metal purely Lambertian). 1 without the extension.
+    pub specular: f32,
     /// Emitted radiance in W·sr⁻¹·m⁻²: emissiveFactor × KHR_materials_emissive_strength.
     pub emission: Vec3,
     /// Emitters emit from both faces only when double-sided.
@@ -24,6 +27,7 @@ impl Default for Material {
             base_color: Vec3::ONE,
             metallic: 1.0,
             roughness: 1.0,
+            specular: 1.0,
             emission: Vec3::ZERO,
             double_sided: false,
         }

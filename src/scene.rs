@@ -25,6 +25,7 @@ impl Triangle {
     }
 }
 
+#[derive(Debug)]
 pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,

@@ -7,6 +7,10 @@
 //!   F: Fresnel-Schlick with F0 = mix(0.04, baseColor, metallic)
 //!   kd = (1 − F)(1 − metallic)
 //!
+//! KHR_materials_specular's factor s scales the dielectric layer as that
+//! extension defines: F0 = mix(0.04·s, baseColor, metallic) and
+//! F90 = mix(s, 1, metallic). With s = 1 (no extension) this is the seed.
+//!
 //! Each lobe keeps `eval`, `sample` and `pdf` side by side. The material picks
 //! a lobe with probability `spec_probability` and reports the mixture pdf, so
 //! `f·cos/pdf` is an unbiased one-sample estimate whatever the choice.
@@ -34,8 +38,12 @@ fn cos_theta(w: Vec3) -> f32 {
 }
 
 pub fn fresnel_schlick(f0: Vec3, cos: f32) -> Vec3 {
+    fresnel_schlick_f90(f0, Vec3::ONE, cos)
+}
+
+pub fn fresnel_schlick_f90(f0: Vec3, f90: Vec3, cos: f32) -> Vec3 {
     let m = (1.0 - cos.clamp(0.0, 1.0)).powi(5);
-    f0 + (Vec3::ONE - f0) * m
+    f0 + (f90 - f0) * m
 }
 
 pub fn luminance(c: Vec3) -> f32 {
@@ -148,6 +156,7 @@ pub struct SeedBsdf {
     pub metallic: f32,
     pub alpha: f32,
     pub f0: Vec3,
+    pub f90: Vec3,
     /// Probability of sampling the specular lobe, from the lobes' expected
     /// reflectance at this wo (see `new`).
     pub spec_probability: f32,
@@ -159,13 +168,15 @@ impl SeedBsdf {
         let alpha = (r * r).max(MIN_ALPHA);
         let metallic = m.metallic.clamp(0.0, 1.0);
         let base = m.base_color.clamp(Vec3::ZERO, Vec3::ONE);
-        let f0 = Vec3::splat(0.04).lerp(base, metallic);
+        let specular = m.specular.clamp(0.0, 1.0);
+        let f0 = Vec3::splat(0.04 * specular).lerp(base, metallic);
+        let f90 = Vec3::splat(specular).lerp(Vec3::ONE, metallic);
         // Lobe weights: specular ≈ Fresnel at the viewing angle, diffuse ≈ what
         // is left times the diffuse albedo. A lobe of zero weight is never picked.
-        let w_spec = luminance(fresnel_schlick(f0, cos_theta(wo)));
+        let w_spec = luminance(fresnel_schlick_f90(f0, f90, cos_theta(wo)));
         let w_diff = (1.0 - metallic) * luminance(base) * (1.0 - w_spec);
         let spec_probability = if w_spec + w_diff > 0.0 { w_spec / (w_spec + w_diff) } else { 1.0 };
-        SeedBsdf { base_color: base, metallic, alpha, f0, spec_probability }
+        SeedBsdf { base_color: base, metallic, alpha, f0, f90, spec_probability }
     }
 
     /// f(wo, wi), without the cosine.
@@ -174,9 +185,13 @@ impl SeedBsdf {
             return Vec3::ZERO;
         }
         let h = (wo + wi).normalize_or_zero();
-        let f = fresnel_schlick(self.f0, wo.dot(h));
+        let f = fresnel_schlick_f90(self.f0, self.f90, wo.dot(h));
         let kd = (Vec3::ONE - f) * (1.0 - self.metallic);
-        kd * lambert::eval(self.base_color, wo, wi) + ggx::eval(self.alpha, f, wo, wi)
+        let diffuse = kd * lambert::eval(self.base_color, wo, wi);
+        if self.spec_probability == 0.0 {
+            return diffuse; // no specular layer at all (s = 0, not metallic)
+        }
+        diffuse + ggx::eval(self.alpha, f, wo, wi)
     }
 
     /// Mixture pdf of the two sampling strategies.

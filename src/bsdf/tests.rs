@@ -187,6 +187,23 @@ fn seed_dielectric_energy_gain_is_the_known_one() {
 }
 
 #[test]
+fn zero_specular_dielectric_is_exactly_lambert() {
+    let mut m = material(Vec3::new(0.5, 0.6, 0.7), 0.0, 0.4);
+    m.specular = 0.0;
+    let mut rng = Rng::new(8, 8);
+    for theta in [0.0f32, 50.0, 89.0] {
+        let wo = dir_at(theta);
+        let bsdf = SeedBsdf::new(&m, wo);
+        assert_eq!(bsdf.spec_probability, 0.0);
+        for _ in 0..1000 {
+            let s = bsdf.sample(wo, rng.next_f32(), rng.next_2d()).unwrap();
+            assert!((s.f - m.base_color / std::f32::consts::PI).abs().max_element() < 1e-6);
+            assert!((s.pdf - s.wi.z / std::f32::consts::PI).abs() < 1e-5);
+        }
+    }
+}
+
+#[test]
 fn seed_material_is_reciprocal() {
     let mut rng = Rng::new(6, 6);
     for _ in 0..10_000 {

@@ -6,6 +6,7 @@ const MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
 
+#[derive(Debug)]
 pub struct Glb<'a> {
     pub json: &'a [u8],
     pub bin: Option<&'a [u8]>,

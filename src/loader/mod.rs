@@ -346,8 +346,14 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         .map_or(1.0, |s| finite_or(s.emissive_strength.0, 1.0).max(0.0));
     let ef = m.emissive_factor.0;
     let emissive = Vec3::new(finite_or(ef[0], 0.0), finite_or(ef[1], 0.0), finite_or(ef[2], 0.0)).clamp(Vec3::ZERO, Vec3::ONE);
+    let specular = m
+        .extensions
+        .as_ref()
+        .and_then(|e| e.specular.as_ref())
+        .map_or(1.0, |s| finite_or(s.specular_factor.0, 1.0).clamp(0.0, 1.0));
     Material {
         name: m.name.clone().unwrap_or_else(|| format!("material {index}")),
+        specular,
         base_color,
         metallic: finite_or(pbr.metallic_factor.0, 1.0).clamp(0.0, 1.0),
         roughness: finite_or(pbr.roughness_factor.0, 1.0).clamp(0.0, 1.0),

@@ -1,0 +1,377 @@
+//! Loader tests: every supported feature and every kind of bad input.
+
+use super::*;
+use base64::Engine;
+use serde_json::{json, Value};
+
+/// Little-endian bytes of floats / u16s.
+fn f32s(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+fn u16s(v: &[u16]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+fn data_uri(bytes: &[u8]) -> String {
+    format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+}
+
+const QUAD: [f32; 12] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0];
+
+/// One buffer: 4 quad positions (48 bytes), 4 +Z normals (48), 6 u16 indices (12).
+fn quad_buffer() -> Vec<u8> {
+    let mut b = f32s(&QUAD);
+    b.extend(f32s(&[0.0, 0.0, 1.0].repeat(4)));
+    b.extend(u16s(&[0, 1, 2, 0, 2, 3]));
+    b
+}
+
+/// A scene with a camera node and a quad mesh node; tweak the JSON per test.
+fn base_doc() -> Value {
+    let buf = quad_buffer();
+    json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [
+            {"name": "Cam", "camera": 0, "translation": [0.5, 0.5, 3.0]},
+            {"name": "Quad", "mesh": 0}
+        ],
+        "cameras": [{"name": "CamData", "type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1, "aspectRatio": 2.0}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1.0], "metallicFactor": 0.25, "roughnessFactor": 0.5}}],
+        "buffers": [{"byteLength": buf.len(), "uri": data_uri(&buf)}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 96, "byteLength": 12}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+        ]
+    })
+}
+
+fn load(doc: &Value) -> Result<Scene, LoadError> {
+    load_bytes(doc.to_string().as_bytes(), None, "test.gltf", &LoadOptions::default())
+}
+
+fn load_err(doc: &Value) -> String {
+    match load(doc) {
+        Ok(_) => panic!("expected an error"),
+        Err(e) => {
+            let s = e.to_string();
+            assert!(s.starts_with("test.gltf: "), "error must name the file: {s}");
+            assert!(!s.contains('\n'), "error must be one line: {s}");
+            s
+        }
+    }
+}
+
+#[test]
+fn loads_the_base_scene() {
+    let s = load(&base_doc()).unwrap();
+    assert_eq!(s.triangles.len(), 2);
+    assert_eq!(s.materials.len(), 1);
+    let m = &s.materials[0];
+    assert_eq!(m.base_color, Vec3::new(0.2, 0.4, 0.6));
+    assert_eq!((m.metallic, m.roughness, m.specular), (0.25, 0.5, 1.0));
+    assert_eq!(s.camera.name, "Cam");
+    assert_eq!(s.camera.position, Vec3::new(0.5, 0.5, 3.0));
+    assert_eq!(s.camera.aspect_ratio, Some(2.0));
+    assert!((s.camera.forward - Vec3::NEG_Z).length() < 1e-6);
+    // Counter-clockwise quad seen from +Z: the front face is +Z.
+    for t in &s.triangles {
+        assert!(t.cross().normalize().dot(Vec3::Z) > 0.999);
+    }
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+#[test]
+fn the_embedded_cornell_box_loads_with_outward_shading_normals() {
+    let s = load_bytes(crate::DEFAULT_SCENE.as_bytes(), None, "cornell", &LoadOptions::default()).unwrap();
+    assert!(s.triangles.len() > 2000);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(s.materials.iter().filter(|m| m.is_emissive()).count(), 1);
+    // Winding and normals agree everywhere (the sphere's smooth normals too).
+    for t in &s.triangles {
+        let face = t.cross().normalize();
+        for n in t.n {
+            assert!(n.dot(face) > 0.5, "shading normal {n} against face {face}");
+        }
+    }
+}
+
+#[test]
+fn non_indexed_and_flat_shaded() {
+    let mut d = base_doc();
+    d["meshes"][0]["primitives"][0] = json!({"attributes": {"POSITION": 0}});
+    d["accessors"][0]["count"] = json!(3);
+    let s = load(&d).unwrap();
+    assert_eq!(s.triangles.len(), 1);
+    assert_eq!(s.triangles[0].n, [Vec3::Z; 3]);
+    // No material: glTF's default (white, metallic 1, roughness 1).
+    assert_eq!(s.materials[0], Material::default());
+}
+
+#[test]
+fn world_transforms_through_the_hierarchy_trs_and_matrix() {
+    let mut d = base_doc();
+    // Parent: translate +10 x via matrix; child: scale 2 and rotate 90° about Z.
+    d["nodes"] = json!([
+        {"name": "Cam", "camera": 0, "translation": [0, 0, 5]},
+        {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 10,0,0,1], "children": [2]},
+        {"mesh": 0, "scale": [2, 2, 2], "rotation": [0, 0, 0.70710678, 0.70710678]}
+    ]);
+    let s = load(&d).unwrap();
+    // Vertex (1,0,0) → scaled (2,0,0) → rotated (0,2,0) → translated (10,2,0).
+    let v = s.triangles[0].p[1];
+    assert!((v - Vec3::new(10.0, 2.0, 0.0)).length() < 1e-5, "{v}");
+    // Normals rotate with the node: +Z stays +Z under a Z rotation.
+    assert!((s.triangles[0].n[0] - Vec3::Z).length() < 1e-5);
+}
+
+#[test]
+fn mirroring_transform_keeps_the_front_face() {
+    let mut d = base_doc();
+    d["nodes"][1]["scale"] = json!([1, 1, -1]);
+    let s = load(&d).unwrap();
+    // Mirrored in z, the quad's front now faces -Z; winding is flipped to match.
+    for t in &s.triangles {
+        assert!(t.cross().normalize().dot(Vec3::NEG_Z) > 0.999);
+        assert!(t.n[0].dot(Vec3::NEG_Z) > 0.999);
+    }
+}
+
+#[test]
+fn emission_strength_double_sided_and_specular() {
+    let mut d = base_doc();
+    d["materials"][0]["emissiveFactor"] = json!([1.0, 0.5, 0.25]);
+    d["materials"][0]["doubleSided"] = json!(true);
+    d["materials"][0]["extensions"] = json!({
+        "KHR_materials_emissive_strength": {"emissiveStrength": 8.0},
+        "KHR_materials_specular": {"specularFactor": 0.0}
+    });
+    let m = &load(&d).unwrap().materials[0];
+    assert_eq!(m.emission, Vec3::new(8.0, 4.0, 2.0));
+    assert!(m.double_sided);
+    assert_eq!(m.specular, 0.0);
+}
+
+#[test]
+fn factors_outside_gltf_ranges_are_clamped() {
+    let mut d = base_doc();
+    d["materials"][0]["pbrMetallicRoughness"] = json!({"baseColorFactor": [2.0, -1.0, 0.5, 1.0], "metallicFactor": 3.0, "roughnessFactor": -2.0});
+    let m = &load(&d).unwrap().materials[0];
+    assert_eq!(m.base_color, Vec3::new(1.0, 0.0, 0.5));
+    assert_eq!((m.metallic, m.roughness), (1.0, 0.0));
+}
+
+#[test]
+fn non_triangle_modes_are_skipped_with_a_count() {
+    let mut d = base_doc();
+    let p = d["meshes"][0]["primitives"][0].clone();
+    let mut lines = p.clone();
+    lines["mode"] = json!(1);
+    let mut points = p.clone();
+    points["mode"] = json!(0);
+    d["meshes"][0]["primitives"] = json!([p, lines.clone(), lines, points]);
+    let s = load(&d).unwrap();
+    assert_eq!(s.triangles.len(), 2);
+    assert!(s.warnings.iter().any(|w| w.contains("skipped 2 primitive(s) with mode Lines")), "{:?}", s.warnings);
+    assert!(s.warnings.iter().any(|w| w.contains("skipped 1 primitive(s) with mode Points")));
+}
+
+#[test]
+fn cameras_first_perspective_by_name_and_errors() {
+    let mut d = base_doc();
+    d["cameras"] = json!([
+        {"name": "Ortho", "type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 10}},
+        {"name": "Persp", "type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}}
+    ]);
+    d["nodes"] = json!([
+        {"name": "OrthoNode", "camera": 0},
+        {"name": "Quad", "mesh": 0, "children": [2]},
+        {"name": "PerspNode", "camera": 1, "translation": [0, 0, 2]}
+    ]);
+    d["scenes"][0]["nodes"] = json!([0, 1]);
+    let s = load(&d).unwrap();
+    assert_eq!(s.camera.name, "PerspNode");
+    assert_eq!(s.camera.yfov, 0.5);
+    let by_name = |n: &str| load_bytes(d.to_string().as_bytes(), None, "test.gltf", &LoadOptions { camera: Some(n.into()), ..Default::default() });
+    assert_eq!(by_name("Persp").unwrap().camera.name, "PerspNode");
+    assert!(by_name("OrthoNode").unwrap_err().to_string().contains("orthographic"));
+    assert!(by_name("Nope").unwrap_err().to_string().contains("no camera named 'Nope'"));
+    d["nodes"][2].as_object_mut().unwrap().remove("camera");
+    d["nodes"][0].as_object_mut().unwrap().remove("camera");
+    assert!(load_err(&d).contains("no perspective camera"));
+}
+
+#[test]
+fn scene_index_picks_the_scene() {
+    let mut d = base_doc();
+    d["scenes"] = json!([{"nodes": [0]}, {"nodes": [0, 1]}]);
+    d["scene"] = json!(0);
+    assert_eq!(load(&d).unwrap().triangles.len(), 0);
+    let two = load_bytes(d.to_string().as_bytes(), None, "t", &LoadOptions { scene_index: Some(1), ..Default::default() }).unwrap();
+    assert_eq!(two.triangles.len(), 2);
+    let bad = load_bytes(d.to_string().as_bytes(), None, "t", &LoadOptions { scene_index: Some(7), ..Default::default() });
+    assert!(bad.unwrap_err().to_string().contains("scene 7 does not exist"));
+}
+
+#[test]
+fn only_referenced_data_is_read() {
+    let mut d = base_doc();
+    // An unreferenced mesh with a broken accessor, and an unreferenced
+    // buffer pointing at a file that does not exist: neither is touched.
+    d["meshes"].as_array_mut().unwrap().push(json!({"primitives": [{"attributes": {"POSITION": 3}}]}));
+    d["accessors"].as_array_mut().unwrap().push(json!({"bufferView": 3, "componentType": 5126, "count": 1000, "type": "VEC3"}));
+    d["bufferViews"].as_array_mut().unwrap().push(json!({"buffer": 1, "byteLength": 12000}));
+    d["buffers"].as_array_mut().unwrap().push(json!({"byteLength": 12000, "uri": "missing.bin"}));
+    d["materials"].as_array_mut().unwrap().push(json!({"pbrMetallicRoughness": {}}));
+    let s = load(&d).unwrap();
+    assert_eq!(s.triangles.len(), 2);
+    assert_eq!(s.materials.len(), 1, "unused materials are not converted");
+}
+
+#[test]
+fn bad_inputs_are_one_line_errors() {
+    // Malformed JSON.
+    let e = load_bytes(b"{\"asset\": ", None, "test.gltf", &LoadOptions::default()).unwrap_err().to_string();
+    assert!(e.starts_with("test.gltf: not valid glTF JSON"), "{e}");
+    // Out-of-range index.
+    let mut d = base_doc();
+    let mut buf = quad_buffer();
+    buf.splice(96..108, u16s(&[0, 1, 9, 0, 2, 3]));
+    d["buffers"][0]["uri"] = json!(data_uri(&buf));
+    assert!(load_err(&d).contains("index 9 is out of range (4 vertices)"));
+    // Accessor past its view, view past its buffer, short buffer.
+    let mut d = base_doc();
+    d["accessors"][0]["count"] = json!(5);
+    assert!(load_err(&d).contains("runs past its bufferView"));
+    let mut d = base_doc();
+    d["bufferViews"][2]["byteLength"] = json!(1000);
+    assert!(load_err(&d).contains("runs past its buffer"));
+    let mut d = base_doc();
+    d["buffers"][0]["byteLength"] = json!(4000);
+    assert!(load_err(&d).contains("byteLength says 4000"));
+    // Huge counts do not allocate.
+    let mut d = base_doc();
+    d["accessors"][0] = json!({"componentType": 5126, "count": 4_000_000_000u64, "type": "VEC3"});
+    assert!(load_err(&d).contains("larger than Glint reads"));
+    // Missing POSITION, missing accessor, wrong type.
+    let mut d = base_doc();
+    d["meshes"][0]["primitives"][0]["attributes"] = json!({"NORMAL": 1});
+    assert!(load_err(&d).contains("no POSITION"));
+    let mut d = base_doc();
+    d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(42);
+    assert!(load_err(&d).contains("accessor 42 does not exist"));
+    let mut d = base_doc();
+    d["accessors"][0]["type"] = json!("VEC2");
+    assert!(load_err(&d).contains("expected one of"));
+    // Node cycle.
+    let mut d = base_doc();
+    d["nodes"][1]["children"] = json!([1]);
+    assert!(load_err(&d).contains("reached twice"));
+    // Unsupported required extension; wrong version.
+    let mut d = base_doc();
+    d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+    assert!(load_err(&d).contains("KHR_draco_mesh_compression"));
+    let mut d = base_doc();
+    d["asset"]["version"] = json!("1.0");
+    assert!(load_err(&d).contains("version"));
+    // External file without a folder; a URI escaping the folder.
+    let mut d = base_doc();
+    d["buffers"][0]["uri"] = json!("../secret.bin");
+    assert!(load_err(&d).contains("has no folder"));
+}
+
+#[test]
+fn non_finite_and_zero_area_triangles_are_dropped_with_counts() {
+    let mut d = base_doc();
+    let mut buf = f32s(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, f32::NAN, 1.0, 0.0, 2.0, 0.0, 0.0]);
+    buf.extend(f32s(&[0.0, 0.0, 1.0].repeat(4)));
+    // Triangle 0-1-2 has a NaN, 0-1-3 is collinear (zero area), 0-1-0 repeats a vertex.
+    buf.extend(u16s(&[0, 1, 2, 0, 1, 3]));
+    d["buffers"][0] = json!({"byteLength": buf.len(), "uri": data_uri(&buf)});
+    let s = load(&d).unwrap();
+    assert_eq!(s.triangles.len(), 0);
+    assert!(s.warnings.iter().any(|w| w.contains("dropped 1 triangle(s) with NaN")), "{:?}", s.warnings);
+    assert!(s.warnings.iter().any(|w| w.contains("dropped 1 zero-area")));
+}
+
+#[test]
+fn bad_normals_fall_back_to_the_face_normal() {
+    let mut d = base_doc();
+    let mut buf = f32s(&QUAD);
+    buf.extend(f32s(&[0.0, 0.0, 0.0, f32::NAN, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0]));
+    buf.extend(u16s(&[0, 1, 2, 0, 2, 3]));
+    d["buffers"][0]["uri"] = json!(data_uri(&buf));
+    let s = load(&d).unwrap();
+    for t in &s.triangles {
+        for n in t.n {
+            assert!((n - Vec3::Z).length() < 1e-6);
+        }
+    }
+    assert!(s.warnings.iter().any(|w| w.contains("vertex normal")));
+}
+
+#[test]
+fn glb_with_bin_chunk_and_external_files() {
+    let dir = std::env::temp_dir().join(format!("glint-loader-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let buf = quad_buffer();
+    // .gltf + .bin in a folder, with a percent-encoded name.
+    std::fs::write(dir.join("quad data.bin"), &buf).unwrap();
+    let mut d = base_doc();
+    d["buffers"][0]["uri"] = json!("quad%20data.bin");
+    std::fs::write(dir.join("scene.gltf"), d.to_string()).unwrap();
+    assert_eq!(load_file(&dir.join("scene.gltf"), &LoadOptions::default()).unwrap().triangles.len(), 2);
+    // The same as GLB with a BIN chunk.
+    d["buffers"][0].as_object_mut().unwrap().remove("uri");
+    let mut json_bytes = d.to_string().into_bytes();
+    while json_bytes.len() % 4 != 0 {
+        json_bytes.push(b' ');
+    }
+    let mut bin = buf.clone();
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend((total as u32).to_le_bytes());
+    glb.extend((json_bytes.len() as u32).to_le_bytes());
+    glb.extend(0x4E4F_534Au32.to_le_bytes());
+    glb.extend(&json_bytes);
+    glb.extend((bin.len() as u32).to_le_bytes());
+    glb.extend(0x004E_4942u32.to_le_bytes());
+    glb.extend(&bin);
+    std::fs::write(dir.join("scene.glb"), &glb).unwrap();
+    assert_eq!(load_file(&dir.join("scene.glb"), &LoadOptions::default()).unwrap().triangles.len(), 2);
+    // Missing file and a folder instead of a file.
+    let e = load_file(&dir.join("nope.gltf"), &LoadOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("nope.gltf"), "{e}");
+    assert!(load_file(&dir, &LoadOptions::default()).unwrap_err().to_string().contains("not a regular file"));
+    // A URI that leaves the folder.
+    d["buffers"][0]["uri"] = json!("../quad%20data.bin");
+    std::fs::write(dir.join("escape.gltf"), d.to_string()).unwrap();
+    assert!(load_file(&dir.join("escape.gltf"), &LoadOptions::default()).unwrap_err().to_string().contains("leaves the scene's folder"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn sparse_accessor_overrides_values() {
+    let mut d = base_doc();
+    let mut buf = quad_buffer();
+    let sparse_at = buf.len();
+    buf.extend(u16s(&[2, 0])); // index 2
+    buf.extend(f32s(&[5.0, 5.0, 0.0]));
+    d["buffers"][0] = json!({"byteLength": buf.len(), "uri": data_uri(&buf)});
+    d["bufferViews"].as_array_mut().unwrap().push(json!({"buffer": 0, "byteOffset": sparse_at, "byteLength": 2}));
+    d["bufferViews"].as_array_mut().unwrap().push(json!({"buffer": 0, "byteOffset": sparse_at + 4, "byteLength": 12}));
+    d["accessors"][0]["sparse"] = json!({"count": 1, "indices": {"bufferView": 3, "componentType": 5123}, "values": {"bufferView": 4}});
+    let s = load(&d).unwrap();
+    assert_eq!(s.triangles[0].p[2], Vec3::new(5.0, 5.0, 0.0));
+}
