@@ -22,6 +22,12 @@ struct Cli {
 enum Command {
     /// Render a glTF scene (default: the embedded Cornell box) to a linear EXR.
     Render(RenderArgs),
+    /// Read and check everything in a glTF file (every node, mesh, accessor
+    /// and buffer) and report what it holds, or the first problem.
+    Inspect {
+        /// Scene file (.gltf or .glb).
+        scene: PathBuf,
+    },
 }
 
 #[derive(Args)]
@@ -67,6 +73,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::Inspect { scene } => inspect(&scene),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -143,6 +150,18 @@ fn render(args: RenderArgs) -> Result<()> {
         eprintln!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
         eprintln!("time: {:.4} s per sample (all pixels), {:.1} Mrays/s", seconds / args.spp as f64, mrays);
         eprintln!("discarded non-finite samples: {}", stats.discarded);
+    }
+    Ok(())
+}
+
+fn inspect(path: &Path) -> Result<()> {
+    let found = loader::inspect_file(path)?;
+    for w in &found.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    println!("{}: {} triangles, {} accessors, {} camera node(s)", path.display(), found.triangles, found.accessors, found.cameras);
+    if let Some(problem) = found.camera_problem {
+        println!("{}: cannot render as it is: {problem}", path.display());
     }
     Ok(())
 }

@@ -26,7 +26,7 @@ impl<'a> Buffers<'a> {
         Buffers { root, bin, base_dir, loaded: vec![None; root.buffers.len()] }
     }
 
-    fn get(&mut self, index: usize) -> Result<&[u8], String> {
+    pub fn get(&mut self, index: usize) -> Result<&[u8], String> {
         let buffer = self.root.buffers.get(index).ok_or_else(|| format!("buffer {index} does not exist"))?;
         let len = buffer.byte_length.0;
         if len > buffers::MAX_BUFFER_BYTES {

@@ -52,21 +52,81 @@ pub struct LoadOptions {
     pub camera: Option<String>,
 }
 
-pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
+/// What `inspect_file` found when it read everything in a file.
+#[derive(Debug)]
+pub struct Inspection {
+    pub triangles: usize,
+    pub accessors: usize,
+    pub cameras: usize,
+    /// Why `glint render` could not pick a camera, if it could not.
+    pub camera_problem: Option<String>,
+    pub warnings: Vec<String>,
+}
+
+/// Read and check everything in a file, not only what one scene uses:
+/// every node (in any scene or none), every mesh, every accessor and
+/// buffer. A camera is not required. For robustness testing and
+/// `glint inspect`.
+pub fn inspect_file(path: &Path) -> Result<Inspection, LoadError> {
     let fail = |message: String| LoadError { file: path.display().to_string(), message };
-    let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+    let bytes = read_scene_file(path).map_err(fail)?;
+    let dir = scene_dir(path);
+    let (json, bin) = split_container(&bytes).map_err(fail)?;
+    let root = parse_root(json).map_err(fail)?;
+    let mut b = Builder::new(&root, bin, dir);
+    b.walk_everything().map_err(fail)?;
+    let camera_problem = b.pick_camera(None).err();
+    Ok(Inspection {
+        triangles: b.triangles.len(),
+        accessors: root.accessors.len(),
+        cameras: b.cameras.len(),
+        camera_problem,
+        warnings: b.warnings(),
+    })
+}
+
+fn read_scene_file(path: &Path) -> Result<Vec<u8>, String> {
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
     if !meta.is_file() {
-        return Err(fail("not a regular file".into()));
+        return Err("not a regular file".into());
     }
     if meta.len() > MAX_SCENE_BYTES {
-        return Err(fail(format!("file is {} bytes; Glint reads scene files up to {MAX_SCENE_BYTES}", meta.len())));
+        return Err(format!("file is {} bytes; Glint reads scene files up to {MAX_SCENE_BYTES}", meta.len()));
     }
     let mut bytes = Vec::with_capacity(meta.len() as usize);
     std::fs::File::open(path)
         .and_then(|f| f.take(MAX_SCENE_BYTES).read_to_end(&mut bytes))
-        .map_err(|e| fail(e.to_string()))?;
-    let dir = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
-    load_bytes(&bytes, dir, &path.display().to_string(), options)
+        .map_err(|e| e.to_string())?;
+    Ok(bytes)
+}
+
+fn scene_dir(path: &Path) -> Option<&Path> {
+    path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+}
+
+fn split_container(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
+    if glb::is_glb(bytes) {
+        let g = glb::parse(bytes)?;
+        Ok((g.json, g.bin))
+    } else {
+        Ok((bytes, None))
+    }
+}
+
+fn parse_root(json: &[u8]) -> Result<Root, String> {
+    let root: Root = serde_json::from_slice(json).map_err(|e| format!("not valid glTF JSON: {e}"))?;
+    if !root.asset.version.starts_with("2.") {
+        return Err(format!("glTF version '{}' is not supported (only 2.x)", root.asset.version));
+    }
+    if let Some(ext) = root.extensions_required.iter().find(|e| !SUPPORTED_REQUIRED.contains(&e.as_str())) {
+        return Err(format!("requires extension {ext}, which Glint does not support"));
+    }
+    Ok(root)
+}
+
+pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
+    let bytes = read_scene_file(path).map_err(|message| LoadError { file: path.display().to_string(), message })?;
+    load_bytes(&bytes, scene_dir(path), &path.display().to_string(), options)
 }
 
 /// Load from memory. `base_dir` is where relative URIs point (None: only
@@ -76,28 +136,9 @@ pub fn load_bytes(bytes: &[u8], base_dir: Option<&Path>, name: &str, options: &L
 }
 
 fn load_inner(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOptions) -> Result<Scene, String> {
-    let (json, bin) = if glb::is_glb(bytes) {
-        let g = glb::parse(bytes)?;
-        (g.json, g.bin)
-    } else {
-        (bytes, None)
-    };
-    let root: Root = serde_json::from_slice(json).map_err(|e| format!("not valid glTF JSON: {e}"))?;
-    if !root.asset.version.starts_with("2.") {
-        return Err(format!("glTF version '{}' is not supported (only 2.x)", root.asset.version));
-    }
-    if let Some(ext) = root.extensions_required.iter().find(|e| !SUPPORTED_REQUIRED.contains(&e.as_str())) {
-        return Err(format!("requires extension {ext}, which Glint does not support"));
-    }
-    let mut builder = Builder {
-        root: &root,
-        buffers: Buffers::new(&root, bin, base_dir),
-        triangles: Vec::new(),
-        materials: Vec::new(),
-        material_ids: HashMap::new(),
-        cameras: Vec::new(),
-        stats: Stats::default(),
-    };
+    let (json, bin) = split_container(bytes)?;
+    let root = parse_root(json)?;
+    let mut builder = Builder::new(&root, bin, base_dir);
     builder.walk_scene(options.scene_index)?;
     let camera = builder.pick_camera(options.camera.as_deref())?;
     let warnings = builder.warnings();
@@ -144,6 +185,18 @@ fn local_transform(node: &gltf::json::scene::Node) -> Mat4 {
 }
 
 impl<'a> Builder<'a> {
+    fn new(root: &'a Root, bin: Option<&'a [u8]>, base_dir: Option<&'a Path>) -> Self {
+        Builder {
+            root,
+            buffers: Buffers::new(root, bin, base_dir),
+            triangles: Vec::new(),
+            materials: Vec::new(),
+            material_ids: HashMap::new(),
+            cameras: Vec::new(),
+            stats: Stats::default(),
+        }
+    }
+
     fn walk_scene(&mut self, scene_index: Option<usize>) -> Result<(), String> {
         let root = self.root;
         if root.scenes.is_empty() {
@@ -154,10 +207,55 @@ impl<'a> Builder<'a> {
             .scenes
             .get(index)
             .ok_or_else(|| format!("scene {index} does not exist (the file has {})", root.scenes.len()))?;
+        let roots: Vec<usize> = scene.nodes.iter().map(|n| n.value()).collect();
+        let mut seen = vec![false; root.nodes.len()];
+        self.walk_nodes(&roots, &mut seen)
+    }
+
+    /// Every node of every scene, then every node no scene reaches (which
+    /// finds cycles that hang off nothing), every mesh no node uses, and
+    /// every accessor.
+    fn walk_everything(&mut self) -> Result<(), String> {
+        let root = self.root;
+        let mut seen = vec![false; root.nodes.len()];
+        for scene in &root.scenes {
+            let roots: Vec<usize> = scene.nodes.iter().map(|n| n.value()).collect();
+            // Scenes may share root nodes; each walk checks its own tree.
+            seen.iter_mut().for_each(|s| *s = false);
+            self.walk_nodes(&roots, &mut seen)?;
+        }
+        let mut child = vec![false; root.nodes.len()];
+        for n in &root.nodes {
+            for c in n.children.iter().flatten() {
+                if let Some(flag) = child.get_mut(c.value()) {
+                    *flag = true;
+                }
+            }
+        }
+        seen.iter_mut().for_each(|s| *s = false);
+        let orphans: Vec<usize> = (0..root.nodes.len()).filter(|&i| !child[i]).collect();
+        self.walk_nodes(&orphans, &mut seen)?;
+        if let Some(unreached) = seen.iter().position(|s| !s) {
+            return Err(format!("node {unreached} is part of a node cycle"));
+        }
+        for mesh in 0..root.meshes.len() {
+            self.add_mesh(mesh, &Mat4::IDENTITY)?;
+        }
+        for b in 0..root.buffers.len() {
+            self.buffers.get(b)?;
+        }
+        for a in 0..root.accessors.len() {
+            read_floats(&mut self.buffers, a, &[Type::Scalar, Type::Vec2, Type::Vec3, Type::Vec4, Type::Mat2, Type::Mat3, Type::Mat4])
+                .map_err(|e| format!("accessor {a}: {e}"))?;
+        }
+        Ok(())
+    }
+
+    fn walk_nodes(&mut self, roots: &[usize], seen: &mut [bool]) -> Result<(), String> {
+        let root = self.root;
         // glTF node hierarchies are strict trees: a node met twice means a
         // cycle or a shared child, both invalid.
-        let mut seen = vec![false; root.nodes.len()];
-        let mut stack: Vec<(usize, Mat4)> = scene.nodes.iter().rev().map(|n| (n.value(), Mat4::IDENTITY)).collect();
+        let mut stack: Vec<(usize, Mat4)> = roots.iter().rev().map(|&n| (n, Mat4::IDENTITY)).collect();
         while let Some((index, parent)) = stack.pop() {
             let node = root.nodes.get(index).ok_or_else(|| format!("node {index} does not exist"))?;
             if std::mem::replace(&mut seen[index], true) {
