@@ -55,6 +55,7 @@ pub struct LoadOptions {
 /// What `inspect_file` found when it read everything in a file.
 #[derive(Debug)]
 pub struct Inspection {
+    /// Triangles the default scene renders.
     pub triangles: usize,
     pub accessors: usize,
     pub cameras: usize,
@@ -74,10 +75,10 @@ pub fn inspect_file(path: &Path) -> Result<Inspection, LoadError> {
     let (json, bin) = split_container(&bytes).map_err(fail)?;
     let root = parse_root(json).map_err(fail)?;
     let mut b = Builder::new(&root, bin, dir);
-    b.walk_everything().map_err(fail)?;
+    let triangles = b.walk_everything().map_err(fail)?;
     let camera_problem = b.pick_camera(None).err();
     Ok(Inspection {
-        triangles: b.triangles.len(),
+        triangles,
         accessors: root.accessors.len(),
         cameras: b.cameras.len(),
         camera_problem,
@@ -212,11 +213,18 @@ impl<'a> Builder<'a> {
         self.walk_nodes(&roots, &mut seen)
     }
 
-    /// Every node of every scene, then every node no scene reaches (which
-    /// finds cycles that hang off nothing), every mesh no node uses, and
-    /// every accessor.
-    fn walk_everything(&mut self) -> Result<(), String> {
+    /// Every node of every scene (the default scene first), then every node
+    /// no scene reaches (which finds cycles that hang off nothing), every
+    /// mesh no node uses, every buffer and every accessor. Returns the
+    /// number of triangles the default scene renders.
+    fn walk_everything(&mut self) -> Result<usize, String> {
         let root = self.root;
+        let default_triangles = if root.scenes.is_empty() {
+            0
+        } else {
+            self.walk_scene(None)?;
+            self.triangles.len()
+        };
         let mut seen = vec![false; root.nodes.len()];
         for scene in &root.scenes {
             let roots: Vec<usize> = scene.nodes.iter().map(|n| n.value()).collect();
@@ -248,7 +256,7 @@ impl<'a> Builder<'a> {
             read_floats(&mut self.buffers, a, &[Type::Scalar, Type::Vec2, Type::Vec3, Type::Vec4, Type::Mat2, Type::Mat3, Type::Mat4])
                 .map_err(|e| format!("accessor {a}: {e}"))?;
         }
-        Ok(())
+        Ok(default_triangles)
     }
 
     fn walk_nodes(&mut self, roots: &[usize], seen: &mut [bool]) -> Result<(), String> {

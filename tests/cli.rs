@@ -1,0 +1,102 @@
+//! The `glint` binary as a user runs it: outputs, summary line, and one-line
+//! errors with a non-zero exit for bad input.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn glint(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_glint")).args(args).output().expect("run glint")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("glint-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn renders_the_embedded_default_scene_to_exr_and_png() {
+    let dir = temp_dir("default");
+    let exr = dir.join("out.exr");
+    let png = dir.join("out.png");
+    let o = glint(&["render", "-o", exr.to_str().unwrap(), "--png", png.to_str().unwrap(), "--spp", "2", "--width", "40", "--height", "30", "--stats"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("40x30, 2 spp,") && err.contains("Mrays/s"), "summary line missing: {err}");
+    assert!(err.contains("discarded non-finite samples: 0"), "{err}");
+    let (w, h, px) = glint::output::read_exr(&exr).unwrap();
+    assert_eq!((w, h), (40, 30));
+    assert!(px.iter().all(|p| p.is_finite()) && px.iter().any(|p| p.x > 0.0));
+    let png_img = image::open(&png).unwrap();
+    assert_eq!((png_img.width(), png_img.height()), (40, 30));
+    // Only the two outputs: no temp files left behind.
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn default_resolution_follows_the_camera_aspect_ratio() {
+    let dir = temp_dir("aspect");
+    let exr = dir.join("out.exr");
+    let scene = dir.join("wide.gltf");
+    let text = glint::DEFAULT_SCENE.replace("\"aspectRatio\": 1.0", "\"aspectRatio\": 2.0");
+    std::fs::write(&scene, text).unwrap();
+    let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "1", "--width", "64", "--max-depth", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (w, h, _) = glint::output::read_exr(&exr).unwrap();
+    assert_eq!((w, h), (64, 32));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_input_gives_one_line_errors_and_keeps_old_output() {
+    let dir = temp_dir("bad");
+    let exr = dir.join("out.exr");
+    std::fs::write(&exr, b"previous good image").unwrap();
+    let broken = dir.join("broken.gltf");
+    std::fs::write(&broken, b"{\"asset\": {\"version\": \"2.0\"}, \"scenes\": [").unwrap();
+    let missing = dir.join("missing.gltf");
+    for (scene, expect) in [(&broken, "not valid glTF JSON"), (&missing, "No such file")] {
+        let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
+        let err = stderr(&o);
+        assert!(!o.status.success());
+        assert_eq!(err.lines().count(), 1, "one line: {err}");
+        assert!(err.starts_with("error: ") && err.contains(scene.to_str().unwrap()) && err.contains(expect), "{err}");
+        assert!(!err.contains("panicked"));
+    }
+    assert_eq!(std::fs::read(&exr).unwrap(), b"previous good image");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn zero_sized_images_and_unknown_cameras_are_rejected() {
+    for args in [&["render", "--width", "0"][..], &["render", "--height", "0"], &["render", "--spp", "0"]] {
+        let o = glint(args);
+        assert!(!o.status.success());
+        assert!(!stderr(&o).contains("panicked"));
+    }
+    let o = glint(&["render", "--camera", "Nope", "-o", "/nonexistent/x.exr"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no camera named 'Nope'"), "{}", stderr(&o));
+}
+
+#[test]
+fn unwritable_output_is_a_clean_error() {
+    let o = glint(&["render", "--spp", "1", "--width", "4", "--height", "4", "-o", "/nonexistent-dir/x.exr"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("/nonexistent-dir/x.exr") && !err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn inspect_reports_a_sample_model() {
+    let f = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/Box/Box.gltf");
+    let o = Command::new(env!("CARGO_BIN_EXE_glint")).args(["inspect", f.to_str().unwrap()]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("12 triangles") && out.contains("no perspective camera"), "{out}");
+}
