@@ -12,10 +12,17 @@
 //! * Russian roulette from depth `RR_START_DEPTH` on, surviving with
 //!   probability q = min(max channel of the throughput, 0.95); `max_depth`
 //!   caps the number of scattering events (1 = direct light only).
+//!
+//! With `mis` on (Veach 1997), both strategies count emitters and each
+//! contribution is weighted by the power heuristic w = p²/(p² + p_other²),
+//! both pdfs in solid angle: p_light = r² / (|cosθ'| A_total) for the area
+//! sampling above, p_bsdf from the BSDF. At the last vertex a path cannot
+//! extend, so its light sample takes the whole weight.
 
 use crate::accel::{Accel, Hit};
 use crate::bsdf::SeedBsdf;
 use crate::lights::Lights;
+use crate::render::RenderSettings;
 use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::scene::Scene;
@@ -130,8 +137,25 @@ impl SurfaceHit {
     }
 }
 
-/// L_dir at one surface point: one light sample and its shadow ray.
-fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+/// Power heuristic (β = 2) weight of a strategy with pdf `a` against `b`.
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    if a.is_infinite() {
+        return 1.0;
+    }
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else if a > b { 1.0 } else { 0.0 }
+}
+
+/// Solid-angle pdf of reaching an emitter point at distance² `dist2` with
+/// cosine `cos_light` there by area sampling.
+fn light_pdf_solid_angle(ctx: &Context, dist2: f32, cos_light: f32) -> f32 {
+    let c = cos_light.abs();
+    if c > 0.0 { dist2 / (c / ctx.lights.pdf_area()) } else { f32::INFINITY }
+}
+
+/// L_dir at one surface point: one light sample and its shadow ray,
+/// MIS-weighted against BSDF sampling when `mis` is set.
+fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, mis: bool, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
     let Some(ls) = ctx.lights.sample(ctx.scene, u_pick, u) else { return Vec3::ZERO };
     let to_light = ls.point - si.p;
@@ -162,14 +186,18 @@ fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, rng: 
     if !(length > 0.0) || ctx.accel.occluded(origin, segment / length, length * (1.0 - SHADOW_EPSILON)) {
         return Vec3::ZERO;
     }
-    le * f * (wi_local.z * cos_light.abs() / (dist2 * ls.pdf_area))
+    let weight = if mis { power_heuristic(light_pdf_solid_angle(ctx, dist2, cos_light), bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    le * f * (weight * wi_local.z * cos_light.abs() / (dist2 * ls.pdf_area))
 }
 
 /// Radiance arriving along a camera ray.
-pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, max_depth: u32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSettings, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let max_depth = settings.max_depth;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
+    // Solid-angle pdf of the BSDF sample that produced the current ray.
+    let mut bsdf_pdf = 0.0f32;
     rays.camera += 1;
     for depth in 0..max_depth {
         let Some(hit) = ctx.accel.intersect(o, d, f32::INFINITY) else { break };
@@ -177,12 +205,20 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, max_depth: u32, rng: &mu
         let material = &ctx.scene.materials[si.material as usize];
         if depth == 0 {
             l += beta * material.emitted(si.front_face);
+        } else if settings.mis {
+            let le = material.emitted(si.front_face);
+            if le != Vec3::ZERO {
+                let cos_light = si.ng.dot(d);
+                let weight = power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx, hit.t * hit.t, cos_light));
+                l += beta * le * weight;
+            }
         }
         let wo = si.frame.to_local(-d);
         let bsdf = SeedBsdf::new(material, wo);
-        l += beta * direct_light(ctx, &si, &bsdf, wo, rng, rays);
+        let can_extend = depth + 1 < max_depth;
+        l += beta * direct_light(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);
 
-        if depth + 1 == max_depth {
+        if !can_extend {
             break;
         }
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { break };
@@ -193,6 +229,7 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, max_depth: u32, rng: &mu
             break;
         }
         beta *= s.f * (s.wi.z / s.pdf);
+        bsdf_pdf = s.pdf;
         if depth + 1 >= RR_START_DEPTH {
             let q = beta.max_element().min(RR_MAX_SURVIVAL);
             if !(rng.next_f32() < q) {

@@ -45,6 +45,11 @@ impl Lights {
         self.distribution.total()
     }
 
+    /// Area density of every point on the emitters, 1 / A_total.
+    pub fn pdf_area(&self) -> f32 {
+        (1.0 / self.total_area()) as f32
+    }
+
     pub fn sample(&self, scene: &Scene, u_pick: f32, u: Vec2) -> Option<LightSample> {
         if self.is_empty() {
             return None;
@@ -54,6 +59,6 @@ impl Lights {
         let b = uniform_triangle(u);
         let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
         let normal = tri.cross().normalize();
-        Some(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area: (1.0 / self.total_area()) as f32 })
+        Some(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area: self.pdf_area() })
     }
 }

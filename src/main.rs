@@ -52,6 +52,10 @@ struct RenderArgs {
     /// Most scattering events on a path (1 = direct light only; Cycles' "max bounces" + 1).
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1024))]
     max_depth: u32,
+    /// Multiple importance sampling of lights and BSDF (off: the seed's rule,
+    /// where BSDF-sampled rays ignore emitters).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    mis: String,
     /// Random seed: the same seed gives the same image.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -108,7 +112,7 @@ fn render(args: RenderArgs) -> Result<()> {
         eprintln!("warning: {scene_name}: {w}");
     }
     let (width, height) = resolution(args.width, args.height, scene.camera.aspect_ratio);
-    let settings = RenderSettings { width, height, spp: args.spp, max_depth: args.max_depth, seed: args.seed };
+    let settings = RenderSettings { width, height, spp: args.spp, max_depth: args.max_depth, seed: args.seed, mis: args.mis == "on" };
 
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(t) = args.threads {

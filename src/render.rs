@@ -19,6 +19,9 @@ pub struct RenderSettings {
     pub spp: u32,
     pub max_depth: u32,
     pub seed: u64,
+    /// Combine light and BSDF sampling by multiple importance sampling;
+    /// off is the seed's rule (BSDF-sampled rays ignore emitters).
+    pub mis: bool,
 }
 
 /// Sums of radiance samples per pixel, row-major from the top-left.
@@ -91,7 +94,7 @@ pub fn render_pass(
                         let mut rng = Rng::for_sample(settings.seed, pixel, s as u64);
                         let jitter = rng.next_2d();
                         let (o, d) = ctx.scene.camera.ray(Vec2::new(x as f32, y as f32) + jitter, w, h);
-                        let l = radiance(ctx, o, d, settings.max_depth, &mut rng, &mut stats.rays);
+                        let l = radiance(ctx, o, d, settings, &mut rng, &mut stats.rays);
                         if l.is_finite() {
                             sum += l;
                         } else {
