@@ -26,6 +26,12 @@ struct RtTriangle {
     e2: Vec3A,
 }
 
+impl From<&Triangle> for RtTriangle {
+    fn from(t: &Triangle) -> Self {
+        RtTriangle { v0: t.p[0].into(), e1: (t.p[1] - t.p[0]).into(), e2: (t.p[2] - t.p[0]).into() }
+    }
+}
+
 /// A closest hit: distance along the (unit) ray, the scene triangle and the
 /// barycentrics of vertices 1 and 2.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,13 +93,7 @@ impl Accel {
         let mut core = Duration::default();
         let bvh = build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut core);
         let ids = bvh.primitive_indices.clone();
-        let tris = ids
-            .iter()
-            .map(|&i| {
-                let t = &triangles[i as usize];
-                RtTriangle { v0: t.p[0].into(), e1: (t.p[1] - t.p[0]).into(), e2: (t.p[2] - t.p[0]).into() }
-            })
-            .collect();
+        let tris = ids.iter().map(|&i| RtTriangle::from(&triangles[i as usize])).collect();
         (Accel { bvh: Some(bvh), tris, ids }, start.elapsed())
     }
 
@@ -128,7 +128,7 @@ impl Accel {
     pub fn intersect_brute_force(triangles: &[Triangle], origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         for (i, t) in triangles.iter().enumerate() {
-            let rt = RtTriangle { v0: t.p[0].into(), e1: (t.p[1] - t.p[0]).into(), e2: (t.p[2] - t.p[0]).into() };
+            let rt = RtTriangle::from(t);
             let limit = best.map_or(tmax, |b| b.t);
             if let Some((t, b1, b2)) = intersect(&rt, origin.into(), dir.into(), 0.0, limit) {
                 best = Some(Hit { t, triangle: i as u32, b1, b2 });

@@ -438,20 +438,24 @@ fn finite_or(v: f32, default: f32) -> f32 {
     if v.is_finite() { v } else { default }
 }
 
+/// A glTF colour factor clamped to [0, 1], non-finite channels → `default`.
+fn unit_colour(c: [f32; 3], default: f32) -> Vec3 {
+    Vec3::from(c.map(|v| finite_or(v, default))).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
 /// glTF pbrMetallicRoughness → Material. Factors are clamped to the ranges
 /// glTF defines; emission is emissiveFactor × KHR_materials_emissive_strength,
 /// read as radiance in W·sr⁻¹·m⁻² (Blender's Emission Strength 1 = radiance 1).
 fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
     let pbr = &m.pbr_metallic_roughness;
-    let bc = pbr.base_color_factor.0;
-    let base_color = Vec3::new(finite_or(bc[0], 1.0), finite_or(bc[1], 1.0), finite_or(bc[2], 1.0)).clamp(Vec3::ZERO, Vec3::ONE);
+    let [r, g, b, _alpha] = pbr.base_color_factor.0;
+    let base_color = unit_colour([r, g, b], 1.0);
     let strength = m
         .extensions
         .as_ref()
         .and_then(|e| e.emissive_strength.as_ref())
         .map_or(1.0, |s| finite_or(s.emissive_strength.0, 1.0).max(0.0));
-    let ef = m.emissive_factor.0;
-    let emissive = Vec3::new(finite_or(ef[0], 0.0), finite_or(ef[1], 0.0), finite_or(ef[2], 0.0)).clamp(Vec3::ZERO, Vec3::ONE);
+    let emissive = unit_colour(m.emissive_factor.0, 0.0);
     let specular = m
         .extensions
         .as_ref()
