@@ -17,7 +17,9 @@
 //! contribution is weighted by the power heuristic w = p²/(p² + p_other²),
 //! both pdfs in solid angle: p_light = r² / (|cosθ'| A_total) for the area
 //! sampling above, p_bsdf from the BSDF. At the last vertex a path cannot
-//! extend, so its light sample takes the whole weight.
+//! extend, so its light sample takes the whole weight. A ray from a delta
+//! lobe (a perfect mirror) is the only strategy that can reach the emitter
+//! it hits, so that emission takes weight 1; light samples see f = 0 there.
 
 use crate::accel::{Accel, Hit};
 use crate::bsdf::SeedBsdf;
@@ -196,8 +198,10 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSetting
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
-    // Solid-angle pdf of the BSDF sample that produced the current ray.
+    // Solid-angle pdf of the BSDF sample that produced the current ray, and
+    // whether it came from a delta lobe (which light sampling cannot match).
     let mut bsdf_pdf = 0.0f32;
+    let mut from_delta = false;
     rays.camera += 1;
     for depth in 0..max_depth {
         let Some(hit) = ctx.accel.intersect(o, d, f32::INFINITY) else { break };
@@ -209,7 +213,7 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSetting
             let le = material.emitted(si.front_face);
             if le != Vec3::ZERO {
                 let cos_light = si.ng.dot(d);
-                let weight = power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx, hit.t * hit.t, cos_light));
+                let weight = if from_delta { 1.0 } else { power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx, hit.t * hit.t, cos_light)) };
                 l += beta * le * weight;
             }
         }
@@ -228,8 +232,9 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSetting
         if wi.dot(si.ng) <= 0.0 {
             break;
         }
-        beta *= s.f * (s.wi.z / s.pdf);
+        beta *= s.weight;
         bsdf_pdf = s.pdf;
+        from_delta = s.delta;
         if depth + 1 >= RR_START_DEPTH {
             let q = beta.max_element().min(RR_MAX_SURVIVAL);
             if !(rng.next_f32() < q) {

@@ -20,17 +20,31 @@ use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-/// One sampled direction with its BSDF value and (solid angle) pdf.
+/// One sampled direction (pbrt's BSDFSample).
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
     pub wi: Vec3,
+    /// f(wo, wi); for a delta lobe, the lobe's reflectance (the factor of
+    /// the Dirac delta, without the 1/cos θi that cancels the cosine).
     pub f: Vec3,
+    /// Solid-angle pdf; for a delta lobe, the discrete probability of
+    /// having picked it.
     pub pdf: f32,
+    /// f·cos θi / pdf, the path throughput factor, computed once here.
+    pub weight: Vec3,
+    /// Drawn from a delta lobe: no other strategy can produce this wi, so
+    /// an emitter it hits takes the full MIS weight.
+    pub delta: bool,
 }
 
-/// Smallest α used: below it D(h) overflows f32 for a perfectly aligned h.
-/// Roughness 0 is treated as α = 1e-4 (a near mirror) in the seed model.
-pub const MIN_ALPHA: f32 = 1e-4;
+/// The share of samples a near-mirror specular lobe gets at least; it
+/// falls to 0 as roughness reaches 1 (see `SeedBsdf::new`).
+pub const SPEC_MIN_SHARE: f32 = 0.5;
+
+/// Squared α under which a GGX lobe is a perfect mirror: Cycles'
+/// BSDF_ROUGHNESS_SQ_THRESH (roughness ≲ 0.0038). Above it D(h) ≤ 1/(π α²)
+/// = 1.6e9 and its denominator (≥ α⁴ = 4e-20) stay well inside f32.
+pub const SMOOTH_ALPHA_SQ: f32 = 2e-10;
 
 #[inline]
 fn cos_theta(w: Vec3) -> f32 {
@@ -155,6 +169,8 @@ pub struct SeedBsdf {
     pub base_color: Vec3,
     pub metallic: f32,
     pub alpha: f32,
+    /// The specular lobe is a perfect mirror (α² ≤ SMOOTH_ALPHA_SQ).
+    pub smooth: bool,
     pub f0: Vec3,
     pub f90: Vec3,
     /// Probability of sampling the specular lobe, from the lobes' expected
@@ -165,7 +181,8 @@ pub struct SeedBsdf {
 impl SeedBsdf {
     pub fn new(m: &Material, wo: Vec3) -> Self {
         let r = m.roughness.clamp(0.0, 1.0);
-        let alpha = (r * r).max(MIN_ALPHA);
+        let alpha = r * r;
+        let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
         let metallic = m.metallic.clamp(0.0, 1.0);
         let base = m.base_color.clamp(Vec3::ZERO, Vec3::ONE);
         let specular = m.specular.clamp(0.0, 1.0);
@@ -175,11 +192,20 @@ impl SeedBsdf {
         // is left times the diffuse albedo. A lobe of zero weight is never picked.
         let w_spec = luminance(fresnel_schlick_f90(f0, f90, cos_theta(wo)));
         let w_diff = (1.0 - metallic) * luminance(base) * (1.0 - w_spec);
-        let spec_probability = if w_spec + w_diff > 0.0 { w_spec / (w_spec + w_diff) } else { 1.0 };
-        SeedBsdf { base_color: base, metallic, alpha, f0, f90, spec_probability }
+        let mut spec_probability = if w_spec + w_diff > 0.0 { w_spec / (w_spec + w_diff) } else { 1.0 };
+        // Weights by reflectance assume light arrives evenly from all sides.
+        // A narrow lobe concentrates what it reflects, so missing it costs
+        // more: a glossy plastic reflecting a small bright light picked its
+        // lobe 1 time in 10 and stayed noisy (tests/stability.rs). Narrow
+        // lobes get at least SPEC_MIN_SHARE·(1 − roughness)² of the samples.
+        if w_spec > 0.0 && w_diff > 0.0 {
+            spec_probability = spec_probability.max(SPEC_MIN_SHARE * (1.0 - r) * (1.0 - r));
+        }
+        SeedBsdf { base_color: base, metallic, alpha, smooth, f0, f90, spec_probability }
     }
 
-    /// f(wo, wi), without the cosine.
+    /// f(wo, wi), without the cosine; a mirror lobe contributes nothing
+    /// here (it is zero almost everywhere).
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if cos_theta(wo) <= 0.0 || cos_theta(wi) <= 0.0 {
             return Vec3::ZERO;
@@ -188,16 +214,17 @@ impl SeedBsdf {
         let f = fresnel_schlick_f90(self.f0, self.f90, wo.dot(h));
         let kd = (Vec3::ONE - f) * (1.0 - self.metallic);
         let diffuse = kd * lambert::eval(self.base_color, wo, wi);
-        if self.spec_probability == 0.0 {
-            return diffuse; // no specular layer at all (s = 0, not metallic)
+        if self.spec_probability == 0.0 || self.smooth {
+            return diffuse; // no glossy lobe: s = 0 and not metallic, or a mirror
         }
         diffuse + ggx::eval(self.alpha, f, wo, wi)
     }
 
-    /// Mixture pdf of the two sampling strategies.
+    /// Mixture pdf of the two sampling strategies, over the non-delta lobes.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let p = self.spec_probability;
-        p * ggx::pdf(wo, wi, self.alpha) + (1.0 - p) * lambert::pdf(wo, wi)
+        let spec = if self.smooth || p == 0.0 { 0.0 } else { p * ggx::pdf(wo, wi, self.alpha) };
+        spec + (1.0 - p) * lambert::pdf(wo, wi)
     }
 
     /// `u_lobe` picks the lobe, `u` drives it.
@@ -205,14 +232,18 @@ impl SeedBsdf {
         if cos_theta(wo) <= 0.0 {
             return None;
         }
-        let wi = if u_lobe < self.spec_probability {
-            ggx::sample(wo, u, self.alpha)?
-        } else {
-            lambert::sample(u)
-        };
+        let p = self.spec_probability;
+        if self.smooth && u_lobe < p {
+            // Perfect mirror: wi = reflect(wo), h = n, weight F(n·wo) / p.
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            let f = fresnel_schlick_f90(self.f0, self.f90, cos_theta(wo));
+            return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
+        }
+        let wi = if u_lobe < p { ggx::sample(wo, u, self.alpha)? } else { lambert::sample(u) };
         let pdf = self.pdf(wo, wi);
         let f = self.eval(wo, wi);
-        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample { wi, f, pdf })
+        let weight = f * (cos_theta(wi) / pdf);
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
     }
 }
 

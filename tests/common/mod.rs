@@ -1,0 +1,117 @@
+//! Helpers shared by the whole-render test files: rendering a scene built in
+//! code, small geometry builders and image error measures.
+#![allow(dead_code)] // each test file uses its own subset
+
+use glam::Vec3;
+use glint::camera::Camera;
+use glint::integrator::Context;
+use glint::material::Material;
+use glint::render::{render_pass, Film, PassStats, RenderSettings};
+use glint::scene::{Scene, Triangle};
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+/// Render all of `settings.spp` in one pass on `threads` threads; the image
+/// is the per-pixel mean. The duration is of rendering only (no BVH build).
+pub fn render_timed(scene: &Scene, settings: &RenderSettings, threads: usize) -> (Vec<Vec3>, PassStats, Duration) {
+    let (ctx, _) = Context::new(scene);
+    let mut film = Film::new(settings.width, settings.height);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let start = Instant::now();
+    let stats = pool
+        .install(|| render_pass(&ctx, settings, &mut film, 0..settings.spp, &AtomicBool::new(false), &|_| {}))
+        .unwrap();
+    (film.mean(), stats, start.elapsed())
+}
+
+pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> (Vec<Vec3>, PassStats) {
+    let (img, stats, _) = render_timed(scene, settings, threads);
+    (img, stats)
+}
+
+pub fn settings(width: u32, height: u32, spp: u32, max_depth: u32, seed: u64) -> RenderSettings {
+    RenderSettings { width, height, spp, max_depth, seed, mis: false }
+}
+
+/// Two triangles of the square |x − cx|, |z − cz| ≤ half in the plane
+/// y = `y`, front face up (+Y) or down.
+pub fn horizontal_quad(c: Vec3, half: f32, y: f32, facing_up: bool, material: u32) -> Vec<Triangle> {
+    let p = [
+        Vec3::new(c.x - half, y, c.z - half),
+        Vec3::new(c.x - half, y, c.z + half),
+        Vec3::new(c.x + half, y, c.z + half),
+        Vec3::new(c.x + half, y, c.z - half),
+    ];
+    let mut tris = vec![[p[0], p[1], p[2]], [p[0], p[2], p[3]]];
+    if !facing_up {
+        tris.iter_mut().for_each(|t| t.swap(1, 2));
+    }
+    tris.into_iter().map(|p| triangle(p, material)).collect()
+}
+
+/// A flat-shaded triangle.
+pub fn triangle(p: [Vec3; 3], material: u32) -> Triangle {
+    let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+    Triangle { p, n: [n; 3], material }
+}
+
+pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
+    let forward = (target - eye).normalize();
+    // Straight down or up: any horizontal right vector will do.
+    let right = forward.cross(Vec3::Y).try_normalize().unwrap_or(Vec3::X);
+    Camera { name: "cam".into(), position: eye, right, up: right.cross(forward), forward, yfov, aspect_ratio: None }
+}
+
+pub fn diffuse(name: &str, albedo: f32) -> Material {
+    // KHR_materials_specular 0: a pure Lambertian surface.
+    Material { name: name.into(), base_color: Vec3::splat(albedo), metallic: 0.0, specular: 0.0, ..Material::default() }
+}
+
+/// A black, single-sided emitter of radiance `le` (W·sr⁻¹·m⁻²).
+pub fn emitter(le: Vec3) -> Material {
+    Material { name: "light".into(), base_color: Vec3::ZERO, metallic: 0.0, specular: 0.0, emission: le, ..Material::default() }
+}
+
+/// Mean over pixels of (a − r)² / (r² + 0.01) on the channel mean: relative
+/// squared error, with 0.01 keeping black pixels from dominating.
+pub fn relative_mse(img: &[Vec3], reference: &[Vec3]) -> f64 {
+    img.iter()
+        .zip(reference)
+        .map(|(a, r)| {
+            let (a, r) = (a.dot(Vec3::ONE) as f64 / 3.0, r.dot(Vec3::ONE) as f64 / 3.0);
+            (a - r).powi(2) / (r * r + 1e-2)
+        })
+        .sum::<f64>()
+        / img.len() as f64
+}
+
+pub fn mean_and_standard_error(values: &[f32]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().map(|&v| v as f64).sum::<f64>() / n;
+    let var = values.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+pub fn region_mean(img: &[Vec3], w: u32, x: std::ops::Range<u32>, y: std::ops::Range<u32>) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    let mut n = 0.0;
+    for j in y.clone() {
+        for i in x.clone() {
+            sum += img[(j * w + i) as usize];
+            n += 1.0;
+        }
+    }
+    sum / n
+}
+
+pub fn channel_mean(img: &[Vec3]) -> f64 {
+    img.iter().map(|p| p.dot(Vec3::ONE) as f64 / 3.0).sum::<f64>() / img.len() as f64
+}
+
+/// Every pixel finite and non-negative.
+pub fn assert_clean(img: &[Vec3], stats: &PassStats, what: &str) {
+    assert_eq!(stats.discarded, 0, "{what}: non-finite samples were discarded");
+    for (i, p) in img.iter().enumerate() {
+        assert!(p.is_finite() && p.min_element() >= 0.0, "{what}: pixel {i} is {p}");
+    }
+}
