@@ -2,10 +2,15 @@
 //! BVH (CWBVH). Triangle data is stored in BVH leaf order so a leaf's
 //! triangles sit together in memory.
 //!
-//! Two obvhs 0.4.0 pitfalls are handled here: its CWBVH traversal misses
+//! Three obvhs 0.4.0 pitfalls are handled here: its CWBVH traversal misses
 //! hits for rays with a `-0.0` direction component (so such components are
-//! made +0.0), and its `Triangle::compute_barycentric` is wrong (so hits are
-//! computed by our own Möller–Trumbore test).
+//! made +0.0); its `Triangle::compute_barycentric` is wrong (so hits are
+//! computed by our own Möller–Trumbore test); and its node test ignores the
+//! ray's tmin and culls every node the ray leaves within 1e-4 (a fixed
+//! `EPSILON` in cwbvh/node.rs and simd.rs), which loses every hit closer
+//! than 0.1 mm — contact shadows, corners, and a whole scene modelled at
+//! 1e-4 scale. Traversal therefore starts from an origin moved back along
+//! the ray (see `TraversalRay`), while leaves test the true origin.
 
 use crate::scene::Triangle;
 use glam::{Vec3, Vec3A};
@@ -72,10 +77,30 @@ fn intersect(tri: &RtTriangle, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Opti
     (t > tmin && t < tmax).then_some((t, b1, b2))
 }
 
-/// obvhs traversal misses hits for `-0.0` components; `x + 0.0` maps -0.0 to +0.0.
-#[inline(always)]
-fn obvhs_ray(o: Vec3, d: Vec3, tmax: f32) -> Ray {
-    Ray::new(Vec3A::from(o), Vec3A::from(d) + Vec3A::ZERO, 0.0, tmax)
+/// obvhs's node-culling distance (cwbvh::node::EPSILON, not public).
+const OBVHS_NODE_EPSILON: f32 = 1e-4;
+
+/// The ray obvhs traverses: the true one moved back by `shift` along its
+/// direction, so a hit at distance t is at t + shift ≥ obvhs's epsilon.
+/// Leaves convert back with the exact shift that rounding left.
+struct TraversalRay {
+    ray: Ray,
+    shift: f32,
+}
+
+impl TraversalRay {
+    #[inline(always)]
+    fn new(o: Vec3, d: Vec3, tmax: f32) -> Self {
+        // Twice the epsilon, and enough ulps of the origin that the move
+        // survives rounding at any coordinate magnitude.
+        let ulp = o.abs().max_element() * f32::EPSILON;
+        let back = (2.0 * OBVHS_NODE_EPSILON).max(8.0 * ulp);
+        let moved = o - d * back;
+        let shift = (o - moved).dot(d);
+        // `x + 0.0` maps a -0.0 direction component to +0.0.
+        let ray = Ray::new(Vec3A::from(moved), Vec3A::from(d) + Vec3A::ZERO, 0.0, tmax + shift);
+        TraversalRay { ray, shift }
+    }
 }
 
 impl Accel {
@@ -100,28 +125,31 @@ impl Accel {
     /// Closest hit along a unit-direction ray within (0, tmax).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
-        let ray = obvhs_ray(origin, dir, tmax);
+        let tr = TraversalRay::new(origin, dir, tmax);
+        let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
         let mut hit = RayHit::none();
-        let mut best = (0.0f32, 0.0f32);
-        let found = bvh.ray_traverse(ray, &mut hit, |r, id| match intersect(&self.tris[id], r.origin, r.direction, r.tmin, r.tmax) {
-            Some((t, b1, b2)) => {
-                // Only the closest hit's barycentrics survive: traversal
-                // shrinks tmax, so a later hit is always closer.
-                best = (b1, b2);
-                t
+        let mut best = (f32::INFINITY, 0.0f32, 0.0f32);
+        let found = bvh.ray_traverse(tr.ray, &mut hit, |r, id| {
+            let limit = best.0.min(tmax).min(r.tmax - tr.shift);
+            match intersect(&self.tris[id], o, d, 0.0, limit) {
+                Some((t, b1, b2)) => {
+                    // Only the closest hit survives: each accepted hit is
+                    // closer than every earlier one.
+                    best = (t, b1, b2);
+                    t + tr.shift
+                }
+                None => f32::INFINITY,
             }
-            None => f32::INFINITY,
         });
-        found.then(|| Hit { t: hit.t, triangle: self.ids[hit.primitive_id as usize], b1: best.0, b2: best.1 })
+        (found && best.0 < f32::INFINITY).then(|| Hit { t: best.0, triangle: self.ids[hit.primitive_id as usize], b1: best.1, b2: best.2 })
     }
 
     /// Whether anything blocks the segment origin + t·dir, t in (0, tmax).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
-        let ray = obvhs_ray(origin, dir, tmax);
-        !bvh.ray_traverse_miss(ray, |r, id| {
-            intersect(&self.tris[id], r.origin, r.direction, r.tmin, r.tmax).map_or(f32::INFINITY, |h| h.0)
-        })
+        let tr = TraversalRay::new(origin, dir, tmax);
+        let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
+        !bvh.ray_traverse_miss(tr.ray, |_, id| intersect(&self.tris[id], o, d, 0.0, tmax).map_or(f32::INFINITY, |h| h.0 + tr.shift))
     }
 
     /// Reference closest hit by testing every triangle (for tests).
@@ -182,7 +210,7 @@ mod tests {
             let b = Accel::intersect_brute_force(scene, o, d, f32::INFINITY);
             match (a, b) {
                 (Some(a), Some(b)) => {
-                    assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0), "t {} vs {} for {o} {d}", a.t, b.t);
+                    assert!((a.t - b.t).abs() <= 1e-5 * b.t, "t {} vs {} for {o} {d}", a.t, b.t);
                     if a.triangle == b.triangle {
                         assert!((a.b1 - b.b1).abs() < 1e-5 && (a.b2 - b.b2).abs() < 1e-5);
                     }
@@ -210,6 +238,27 @@ mod tests {
             })
             .collect();
         check_against_brute_force(&scene, &rays);
+    }
+
+    /// obvhs alone culls nodes the ray leaves within 1e-4: at these scales
+    /// every hit was lost before `TraversalRay`.
+    #[test]
+    fn matches_brute_force_at_every_scale_and_offset() {
+        for (scale, shift) in [(1e-6f32, 0.0f32), (1e-4, 0.0), (1e-4, 1.0), (1.0, 0.0), (1e4, 0.0), (1.0, 1e5)] {
+            let mut rng = Rng::new(3, 4);
+            let scene: Vec<Triangle> = random_soup(500, &mut rng)
+                .into_iter()
+                .map(|t| tri(t.p[0] * scale + Vec3::splat(shift), t.p[1] * scale + Vec3::splat(shift), t.p[2] * scale + Vec3::splat(shift)))
+                .collect();
+            let rays: Vec<_> = (0..1000)
+                .map(|_| {
+                    let o = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0) * scale + Vec3::splat(shift);
+                    let d = crate::sampling::cosine_hemisphere(rng.next_2d());
+                    (o, if rng.next_f32() < 0.5 { -d } else { d })
+                })
+                .collect();
+            check_against_brute_force(&scene, &rays);
+        }
     }
 
     #[test]

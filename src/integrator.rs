@@ -3,8 +3,9 @@
 //!   L = L_emit + L_dir + L_indir
 //!
 //! * L_emit: emission seen directly, added at the camera ray's hit only.
-//! * L_dir: next-event estimation. A point x' is sampled on the emitters by
-//!   area (pdf_A = 1/A_total) and joined by a shadow ray:
+//! * L_dir: next-event estimation. A point x' is sampled on the emitters
+//!   (by power: pdf_A = lum(Le)/Σ lum(Le_j)A_j, see lights.rs; the seed
+//!   sampled by area, 1/A_total) and joined by a shadow ray:
 //!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
 //! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
@@ -15,7 +16,7 @@
 //!
 //! With `mis` on (Veach 1997), both strategies count emitters and each
 //! contribution is weighted by the power heuristic w = p²/(p² + p_other²),
-//! both pdfs in solid angle: p_light = r² / (|cosθ'| A_total) for the area
+//! both pdfs in solid angle: p_light = pdf_A r² / |cosθ'| for the light
 //! sampling above, p_bsdf from the BSDF. At the last vertex a path cannot
 //! extend, so its light sample takes the whole weight. A ray from a delta
 //! lobe (a perfect mirror) is the only strategy that can reach the emitter
@@ -148,11 +149,11 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else if a > b { 1.0 } else { 0.0 }
 }
 
-/// Solid-angle pdf of reaching an emitter point at distance² `dist2` with
-/// cosine `cos_light` there by area sampling.
-fn light_pdf_solid_angle(ctx: &Context, dist2: f32, cos_light: f32) -> f32 {
+/// Solid-angle pdf of reaching an emitter point of area density `pdf_area`
+/// at distance² `dist2` with cosine `cos_light` there.
+fn light_pdf_solid_angle(pdf_area: f32, dist2: f32, cos_light: f32) -> f32 {
     let c = cos_light.abs();
-    if c > 0.0 { dist2 / (c / ctx.lights.pdf_area()) } else { f32::INFINITY }
+    if c > 0.0 { dist2 / (c / pdf_area) } else { f32::INFINITY }
 }
 
 /// L_dir at one surface point: one light sample and its shadow ray,
@@ -188,7 +189,7 @@ fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, mis: 
     if !(length > 0.0) || ctx.accel.occluded(origin, segment / length, length * (1.0 - SHADOW_EPSILON)) {
         return Vec3::ZERO;
     }
-    let weight = if mis { power_heuristic(light_pdf_solid_angle(ctx, dist2, cos_light), bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    let weight = if mis { power_heuristic(light_pdf_solid_angle(ls.pdf_area, dist2, cos_light), bsdf.pdf(wo, wi_local)) } else { 1.0 };
     le * f * (weight * wi_local.z * cos_light.abs() / (dist2 * ls.pdf_area))
 }
 
@@ -213,7 +214,7 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSetting
             let le = material.emitted(si.front_face);
             if le != Vec3::ZERO {
                 let cos_light = si.ng.dot(d);
-                let weight = if from_delta { 1.0 } else { power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx, hit.t * hit.t, cos_light)) };
+                let weight = if from_delta { 1.0 } else { power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx.lights.pdf_area(material.emission), hit.t * hit.t, cos_light)) };
                 l += beta * le * weight;
             }
         }

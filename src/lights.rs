@@ -1,7 +1,10 @@
 //! The light list: emissive triangles, picked with probability proportional
-//! to area and sampled uniformly on their surface, so a point x' on the
-//! emitters has area density pdf_A = 1 / A_total.
+//! to their power (area × luminance of the emitted radiance) and sampled
+//! uniformly on their surface. A point x' on an emitter of radiance Le then
+//! has area density pdf_A = lum(Le) / Σ_j lum(Le_j) A_j: the same for every
+//! point of every emitter of that radiance, so it depends on the material.
 
+use crate::bsdf::luminance;
 use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -10,6 +13,8 @@ pub struct Lights {
     /// Scene triangle index of each emitter.
     pub triangles: Vec<u32>,
     distribution: Distribution1D,
+    /// Σ lum(Le) · A over the emitters, in W·sr⁻¹ (luminance-weighted).
+    total_power: f64,
 }
 
 /// A point on an emitter.
@@ -20,34 +25,28 @@ pub struct LightSample {
     pub point: Vec3,
     /// Unit face normal of the emitter (its front side).
     pub normal: Vec3,
-    /// Area density of this point, 1 / A_total.
+    /// Area density of this point.
     pub pdf_area: f32,
 }
 
 impl Lights {
     pub fn new(scene: &Scene) -> Self {
-        let triangles: Vec<u32> = scene
-            .triangles
-            .iter()
-            .enumerate()
-            .filter(|(_, t)| scene.materials[t.material as usize].is_emissive())
-            .map(|(i, _)| i as u32)
-            .collect();
-        let distribution = Distribution1D::new(triangles.iter().map(|&i| scene.triangles[i as usize].area() as f64));
-        Lights { triangles, distribution }
+        let power = |i: u32| {
+            let t = &scene.triangles[i as usize];
+            t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64
+        };
+        let triangles: Vec<u32> = (0..scene.triangles.len() as u32).filter(|&i| power(i) > 0.0).collect();
+        let distribution = Distribution1D::new(triangles.iter().map(|&i| power(i)));
+        Lights { total_power: distribution.total(), triangles, distribution }
     }
 
     pub fn is_empty(&self) -> bool {
         self.distribution.is_empty()
     }
 
-    pub fn total_area(&self) -> f64 {
-        self.distribution.total()
-    }
-
-    /// Area density of every point on the emitters, 1 / A_total.
-    pub fn pdf_area(&self) -> f32 {
-        (1.0 / self.total_area()) as f32
+    /// Area density of every point on an emitter of radiance `le`.
+    pub fn pdf_area(&self, le: Vec3) -> f32 {
+        if self.total_power > 0.0 { (luminance(le) as f64 / self.total_power) as f32 } else { 0.0 }
     }
 
     pub fn sample(&self, scene: &Scene, u_pick: f32, u: Vec2) -> Option<LightSample> {
@@ -59,6 +58,38 @@ impl Lights {
         let b = uniform_triangle(u);
         let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
         let normal = tri.cross().normalize();
-        Some(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area: self.pdf_area() })
+        let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission);
+        Some(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Camera;
+    use crate::material::Material;
+    use crate::scene::Triangle;
+
+    #[test]
+    fn emitters_are_picked_by_power_and_the_density_integrates_to_one() {
+        let tri = |x: f32, material: u32| Triangle {
+            p: [Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)],
+            n: [Vec3::Z; 3],
+            material,
+        };
+        let m = |le: f32| Material { emission: Vec3::splat(le), ..Material::default() };
+        let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
+        let scene = Scene { triangles: vec![tri(0.0, 0), tri(2.0, 1), tri(4.0, 2)], materials: vec![m(1.0), m(3.0), m(0.0)], camera, warnings: vec![] };
+        let lights = Lights::new(&scene);
+        assert_eq!(lights.triangles, vec![0, 1]);
+        // ∫ pdf_A dA over the emitters = Σ pdf_A(Le_i) A_i = 1.
+        let total: f32 = [0, 1].iter().map(|&i| lights.pdf_area(scene.materials[i].emission) * 0.5).sum();
+        assert!((total - 1.0).abs() < 1e-6);
+        let mut counts = [0u32; 2];
+        for k in 0..4000 {
+            let s = lights.sample(&scene, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3)).unwrap();
+            counts[s.triangle as usize] += 1;
+        }
+        assert_eq!(counts, [1000, 3000]);
     }
 }
