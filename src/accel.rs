@@ -146,10 +146,23 @@ impl Accel {
 
     /// Whether anything blocks the segment origin + t·dir, t in (0, tmax).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        self.occluded_except(origin, dir, tmax, u32::MAX)
+    }
+
+    /// `occluded`, not counting scene triangle `skip`: a shadow ray to a
+    /// point on an emitter need not stop short of that emitter by a guessed
+    /// epsilon (which lets walls closer than it leak light) — a flat
+    /// triangle cannot shadow its own points.
+    pub fn occluded_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let tr = TraversalRay::new(origin, dir, tmax);
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
-        !bvh.ray_traverse_miss(tr.ray, |_, id| intersect(&self.tris[id], o, d, 0.0, tmax).map_or(f32::INFINITY, |h| h.0 + tr.shift))
+        !bvh.ray_traverse_miss(tr.ray, |_, id| {
+            if self.ids[id] == skip {
+                return f32::INFINITY;
+            }
+            intersect(&self.tris[id], o, d, 0.0, tmax).map_or(f32::INFINITY, |h| h.0 + tr.shift)
+        })
     }
 
     /// Reference closest hit by testing every triangle (for tests).

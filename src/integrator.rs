@@ -33,9 +33,6 @@ use glam::Vec3;
 
 pub const RR_START_DEPTH: u32 = 3;
 const RR_MAX_SURVIVAL: f32 = 0.95;
-/// Shadow rays stop this fraction short of the light sample: a margin for
-/// the intersection's own rounding, in units of the ray's length.
-const SHADOW_EPSILON: f32 = 1e-4;
 
 /// Everything a render reads: the scene and what is built from it.
 pub struct Context<'a> {
@@ -186,7 +183,10 @@ fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, mis: 
     let segment = target - origin;
     let length = segment.length();
     rays.shadow += 1;
-    if !(length > 0.0) || ctx.accel.occluded(origin, segment / length, length * (1.0 - SHADOW_EPSILON)) {
+    // The target sits off the emitter by its error bound; the emitter's own
+    // triangle is skipped, so the ray can run its full length and a wall
+    // 10 µm in front of the light still casts its shadow.
+    if !(length > 0.0) || ctx.accel.occluded_except(origin, segment / length, length, ls.triangle) {
         return Vec3::ZERO;
     }
     let weight = if mis { power_heuristic(light_pdf_solid_angle(ls.pdf_area, dist2, cos_light), bsdf.pdf(wo, wi_local)) } else { 1.0 };

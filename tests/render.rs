@@ -3,52 +3,13 @@
 
 mod common;
 
-use common::{mean_and_standard_error, region_mean, render, settings};
-use glam::{Mat4, Vec3};
-use glint::camera::Camera;
+use common::{closed_box, mean_and_standard_error, region_mean, render, settings};
+use glam::Vec3;
 use glint::integrator::Context;
 use glint::loader::{load_bytes, LoadOptions};
-use glint::material::Material;
 use glint::render::{render_pass, Film, RenderSettings};
-use glint::scene::{Scene, Triangle};
+use glint::scene::Scene;
 use std::sync::atomic::AtomicBool;
-
-/// The inside of the cube [-1, 1]³: 12 triangles facing inwards.
-fn closed_box(albedo: f32, emission: f32) -> Scene {
-    let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
-    // Each face's 4 corners in order around it.
-    let faces = [
-        [c(-1., -1., -1.), c(1., -1., -1.), c(1., -1., 1.), c(-1., -1., 1.)], // floor, +Y
-        [c(-1., 1., 1.), c(1., 1., 1.), c(1., 1., -1.), c(-1., 1., -1.)],     // ceiling, -Y
-        [c(-1., -1., -1.), c(-1., 1., -1.), c(1., 1., -1.), c(1., -1., -1.)], // back z=-1, +Z
-        [c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.), c(-1., -1., 1.)],     // front z=1, -Z
-        [c(-1., -1., 1.), c(-1., 1., 1.), c(-1., 1., -1.), c(-1., -1., -1.)], // left x=-1, +X
-        [c(1., -1., -1.), c(1., 1., -1.), c(1., 1., 1.), c(1., -1., 1.)],     // right x=1, -X
-    ];
-    let mut triangles = Vec::new();
-    for f in faces {
-        for mut p in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
-            // Wind each triangle so its front face looks at the centre.
-            let centroid = (p[0] + p[1] + p[2]) / 3.0;
-            if (p[1] - p[0]).cross(p[2] - p[0]).dot(-centroid) < 0.0 {
-                p.swap(1, 2);
-            }
-            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-            triangles.push(Triangle { p, n: [n; 3], material: 0 });
-        }
-    }
-    let material = Material {
-        name: "wall".into(),
-        base_color: Vec3::splat(albedo),
-        metallic: 0.0,
-        roughness: 1.0,
-        specular: 0.0, // KHR_materials_specular 0: a pure Lambertian wall
-        emission: Vec3::splat(emission),
-        double_sided: false,
-    };
-    let camera = Camera::from_world("inside".into(), &Mat4::from_translation(Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
-    Scene { triangles, materials: vec![material], camera, warnings: vec![] }
-}
 
 /// Inside a closed box whose walls all emit Le and reflect diffusely with
 /// albedo a, radiance is Le/(1−a) everywhere: Le + a·Le + a²·Le + …

@@ -2,7 +2,7 @@
 //! code, small geometry builders and image error measures.
 #![allow(dead_code)] // each test file uses its own subset
 
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use glint::camera::Camera;
 use glint::integrator::Context;
 use glint::material::Material;
@@ -114,4 +114,41 @@ pub fn assert_clean(img: &[Vec3], stats: &PassStats, what: &str) {
     for (i, p) in img.iter().enumerate() {
         assert!(p.is_finite() && p.min_element() >= 0.0, "{what}: pixel {i} is {p}");
     }
+}
+
+/// The inside of the cube [-1, 1]³: 12 triangles facing inwards.
+pub fn closed_box(albedo: f32, emission: f32) -> Scene {
+    let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    // Each face's 4 corners in order around it.
+    let faces = [
+        [c(-1., -1., -1.), c(1., -1., -1.), c(1., -1., 1.), c(-1., -1., 1.)], // floor, +Y
+        [c(-1., 1., 1.), c(1., 1., 1.), c(1., 1., -1.), c(-1., 1., -1.)],     // ceiling, -Y
+        [c(-1., -1., -1.), c(-1., 1., -1.), c(1., 1., -1.), c(1., -1., -1.)], // back z=-1, +Z
+        [c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.), c(-1., -1., 1.)],     // front z=1, -Z
+        [c(-1., -1., 1.), c(-1., 1., 1.), c(-1., 1., -1.), c(-1., -1., -1.)], // left x=-1, +X
+        [c(1., -1., -1.), c(1., 1., -1.), c(1., 1., 1.), c(1., -1., 1.)],     // right x=1, -X
+    ];
+    let mut triangles = Vec::new();
+    for f in faces {
+        for mut p in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
+            // Wind each triangle so its front face looks at the centre.
+            let centroid = (p[0] + p[1] + p[2]) / 3.0;
+            if (p[1] - p[0]).cross(p[2] - p[0]).dot(-centroid) < 0.0 {
+                p.swap(1, 2);
+            }
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+            triangles.push(Triangle { p, n: [n; 3], material: 0 });
+        }
+    }
+    let material = Material {
+        name: "wall".into(),
+        base_color: Vec3::splat(albedo),
+        metallic: 0.0,
+        roughness: 1.0,
+        specular: 0.0, // KHR_materials_specular 0: a pure Lambertian wall
+        emission: Vec3::splat(emission),
+        double_sided: false,
+    };
+    let camera = Camera::from_world("inside".into(), &Mat4::from_translation(Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
+    Scene { triangles, materials: vec![material], camera, warnings: vec![] }
 }
