@@ -210,8 +210,12 @@ impl SeedBsdf {
         if cos_theta(wo) <= 0.0 || cos_theta(wi) <= 0.0 {
             return Vec3::ZERO;
         }
-        let h = (wo + wi).normalize_or_zero();
-        let f = fresnel_schlick_f90(self.f0, self.f90, wo.dot(h));
+        // A mirror's only microfacet normal is n, so what it reflects is
+        // F(n·wo) and the diffuse layer gets the rest. (The seed's F(wo·h)
+        // with h between wo and a diffuse wi would let a white plastic mirror
+        // return 1.85 of the light at 89°.)
+        let cos_d = if self.smooth { cos_theta(wo) } else { wo.dot((wo + wi).normalize_or_zero()) };
+        let f = fresnel_schlick_f90(self.f0, self.f90, cos_d);
         let kd = (Vec3::ONE - f) * (1.0 - self.metallic);
         let diffuse = kd * lambert::eval(self.base_color, wo, wi);
         if self.spec_probability == 0.0 || self.smooth {

@@ -261,3 +261,19 @@ fn grazing_and_back_facing_directions_are_finite_and_non_negative() {
         }
     }
 }
+
+/// A mirror over a diffuse base passes to the base exactly what the mirror
+/// does not reflect, so a white one returns all the light at every angle.
+#[test]
+fn white_dielectric_mirror_returns_exactly_one() {
+    for roughness in [0.0f32, 1e-3] {
+        for theta in [0.0f32, 45.0, 75.0, 85.0, 89.0, 89.99] {
+            let wo = dir_at(theta);
+            let bsdf = SeedBsdf::new(&material(Vec3::ONE, 0.0, roughness), wo);
+            assert!(bsdf.smooth);
+            let a = albedo(&bsdf, wo, 200_000, 13).max_element();
+            // Mirror weight F/p and diffuse weight (1−F)/(1−p): ±0.01 is > 5σ.
+            assert!((a - 1.0).abs() < 0.01, "roughness {roughness} θo {theta}: albedo {a}");
+        }
+    }
+}
