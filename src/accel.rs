@@ -127,21 +127,20 @@ impl Accel {
         let bvh = self.bvh.as_ref()?;
         let tr = TraversalRay::new(origin, dir, tmax);
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
-        let mut hit = RayHit::none();
-        let mut best = (f32::INFINITY, 0.0f32, 0.0f32);
-        let found = bvh.ray_traverse(tr.ray, &mut hit, |r, id| {
-            let limit = best.0.min(tmax).min(r.tmax - tr.shift);
+        let mut best: Option<Hit> = None;
+        bvh.ray_traverse(tr.ray, &mut RayHit::none(), |_, id| {
+            // Each accepted hit is closer than every earlier one, so only the
+            // closest survives; obvhs gets its distance along the moved ray.
+            let limit = best.map_or(tmax, |b| b.t);
             match intersect(&self.tris[id], o, d, 0.0, limit) {
                 Some((t, b1, b2)) => {
-                    // Only the closest hit survives: each accepted hit is
-                    // closer than every earlier one.
-                    best = (t, b1, b2);
+                    best = Some(Hit { t, triangle: self.ids[id], b1, b2 });
                     t + tr.shift
                 }
                 None => f32::INFINITY,
             }
         });
-        (found && best.0 < f32::INFINITY).then(|| Hit { t: best.0, triangle: self.ids[hit.primitive_id as usize], b1: best.1, b2: best.2 })
+        best
     }
 
     /// Whether anything blocks the segment origin + t·dir, t in (0, tmax).

@@ -31,12 +31,14 @@ pub struct LightSample {
 
 impl Lights {
     pub fn new(scene: &Scene) -> Self {
-        let power = |i: u32| {
-            let t = &scene.triangles[i as usize];
-            t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64
-        };
-        let triangles: Vec<u32> = (0..scene.triangles.len() as u32).filter(|&i| power(i) > 0.0).collect();
-        let distribution = Distribution1D::new(triangles.iter().map(|&i| power(i)));
+        let (triangles, powers): (Vec<u32>, Vec<f64>) = scene
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (i as u32, t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64))
+            .filter(|&(_, power)| power > 0.0)
+            .unzip();
+        let distribution = Distribution1D::new(powers);
         Lights { total_power: distribution.total(), triangles, distribution }
     }
 

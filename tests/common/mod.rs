@@ -136,8 +136,7 @@ pub fn closed_box(albedo: f32, emission: f32) -> Scene {
             if (p[1] - p[0]).cross(p[2] - p[0]).dot(-centroid) < 0.0 {
                 p.swap(1, 2);
             }
-            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-            triangles.push(Triangle { p, n: [n; 3], material: 0 });
+            triangles.push(triangle(p, 0));
         }
     }
     let material = Material {
