@@ -107,17 +107,24 @@ impl Accel {
     /// Triangles must be finite and of non-zero area (the loader drops the
     /// rest): obvhs can panic on NaN bounds.
     pub fn build(triangles: &[Triangle]) -> (Self, Duration) {
+        let all: Vec<u32> = (0..triangles.len() as u32).collect();
+        Self::build_subset(triangles, &all)
+    }
+
+    /// Over the scene triangles `subset` only; hits name scene triangles.
+    pub fn build_subset(triangles: &[Triangle], subset: &[u32]) -> (Self, Duration) {
         let start = std::time::Instant::now();
-        if triangles.is_empty() {
+        if subset.is_empty() {
             return (Accel { bvh: None, tris: Vec::new(), ids: Vec::new() }, start.elapsed());
         }
-        let bvh_tris: Vec<obvhs::triangle::Triangle> = triangles
+        let bvh_tris: Vec<obvhs::triangle::Triangle> = subset
             .iter()
+            .map(|&i| &triangles[i as usize])
             .map(|t| obvhs::triangle::Triangle { v0: t.p[0].into(), v1: t.p[1].into(), v2: t.p[2].into() })
             .collect();
         let mut core = Duration::default();
         let bvh = build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut core);
-        let ids = bvh.primitive_indices.clone();
+        let ids: Vec<u32> = bvh.primitive_indices.iter().map(|&i| subset[i as usize]).collect();
         let tris = ids.iter().map(|&i| RtTriangle::from(&triangles[i as usize])).collect();
         (Accel { bvh: Some(bvh), tris, ids }, start.elapsed())
     }

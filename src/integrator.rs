@@ -25,6 +25,7 @@
 use crate::accel::{Accel, Hit};
 use crate::bsdf::SeedBsdf;
 use crate::lights::Lights;
+use crate::material::Material;
 use crate::render::RenderSettings;
 use crate::rng::Rng;
 use crate::sampling::Frame;
@@ -37,15 +38,21 @@ const RR_MAX_SURVIVAL: f32 = 0.95;
 /// Everything a render reads: the scene and what is built from it.
 pub struct Context<'a> {
     pub scene: &'a Scene,
+    /// Surfaces: what rays stop at and what casts shadows.
     pub accel: Accel,
+    /// Lamps: seen by camera and BSDF rays for their emission only (empty
+    /// without area lights, when a query costs one branch).
+    pub lamps: Accel,
     pub lights: Lights,
 }
 
 impl<'a> Context<'a> {
     pub fn new(scene: &'a Scene) -> (Self, std::time::Duration) {
-        let (accel, build_time) = Accel::build(&scene.triangles);
+        let (lamps, surfaces): (Vec<u32>, Vec<u32>) = (0..scene.triangles.len() as u32).partition(|&i| scene.is_lamp(&scene.triangles[i as usize]));
+        let (accel, surface_time) = Accel::build_subset(&scene.triangles, &surfaces);
+        let (lamps, lamp_time) = Accel::build_subset(&scene.triangles, &lamps);
         let lights = Lights::new(scene);
-        (Context { scene, accel, lights }, build_time)
+        (Context { scene, accel, lamps, lights }, surface_time + lamp_time)
     }
 }
 
@@ -193,6 +200,23 @@ fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, mis: 
     le * f * (weight * wi_local.z * cos_light.abs() / (dist2 * ls.pdf_area))
 }
 
+/// Emission of `material` seen by a ray at distance `t`, cosine `cos_light`
+/// at the emitter: whole on camera rays and after a delta lobe; MIS-weighted
+/// against light sampling on other BSDF rays; none under the seed's rule
+/// (light sampling alone counts emitters after the first hit).
+#[allow(clippy::too_many_arguments)]
+fn emission_seen(ctx: &Context, material: &Material, front_face: bool, t: f32, cos_light: f32, depth: u32, bsdf_pdf: f32, from_delta: bool, mis: bool) -> Vec3 {
+    let le = material.emitted(front_face);
+    if depth == 0 || le == Vec3::ZERO {
+        return le;
+    }
+    if !mis {
+        return Vec3::ZERO;
+    }
+    let weight = if from_delta { 1.0 } else { power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx.lights.pdf_area(material.emission), t * t, cos_light)) };
+    le * weight
+}
+
 /// Radiance arriving along a camera ray.
 pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSettings, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let max_depth = settings.max_depth;
@@ -205,19 +229,23 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSetting
     let mut from_delta = false;
     rays.camera += 1;
     for depth in 0..max_depth {
-        let Some(hit) = ctx.accel.intersect(o, d, f32::INFINITY) else { break };
+        let hit = ctx.accel.intersect(o, d, f32::INFINITY);
+        // A lamp in front of the surface adds its light; the ray goes on.
+        if let Some(lamp) = ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) {
+            let tri = &ctx.scene.triangles[lamp.triangle as usize];
+            let front_face = tri.cross().dot(d) < 0.0;
+            let cos_light = tri.cross().normalize().dot(d);
+            l += beta * emission_seen(ctx, &ctx.scene.materials[tri.material as usize], front_face, lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
+        }
+        // Nothing is lit by the background through light sampling (yet),
+        // so every ray that escapes takes it whole.
+        let Some(hit) = hit else {
+            l += beta * ctx.scene.background;
+            break;
+        };
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
-        if depth == 0 {
-            l += beta * material.emitted(si.front_face);
-        } else if settings.mis {
-            let le = material.emitted(si.front_face);
-            if le != Vec3::ZERO {
-                let cos_light = si.ng.dot(d);
-                let weight = if from_delta { 1.0 } else { power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx.lights.pdf_area(material.emission), hit.t * hit.t, cos_light)) };
-                l += beta * le * weight;
-            }
-        }
+        l += beta * emission_seen(ctx, material, si.front_face, hit.t, si.ng.dot(d), depth, bsdf_pdf, from_delta, settings.mis);
         let wo = si.frame.to_local(-d);
         let bsdf = SeedBsdf::new(material, wo);
         let can_extend = depth + 1 < max_depth;

@@ -3,14 +3,19 @@ pub mod accel;
 pub mod bsdf;
 pub mod camera;
 pub mod integrator;
+pub mod job;
+pub mod lamps;
 pub mod lights;
 pub mod loader;
 pub mod material;
 pub mod output;
+pub mod progressive;
 pub mod render;
+pub mod request;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod watch;
 
 /// The default scene, compiled into the binary so it renders from anywhere.
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/cornell-box.gltf");

@@ -81,7 +81,7 @@ mod tests {
         };
         let m = |le: f32| Material { emission: Vec3::splat(le), ..Material::default() };
         let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
-        let scene = Scene { triangles: vec![tri(0.0, 0), tri(2.0, 1), tri(4.0, 2)], materials: vec![m(1.0), m(3.0), m(0.0)], camera, warnings: vec![] };
+        let scene = Scene::new(vec![tri(0.0, 0), tri(2.0, 1), tri(4.0, 2)], vec![m(1.0), m(3.0), m(0.0)], camera);
         let lights = Lights::new(&scene);
         assert_eq!(lights.triangles, vec![0, 1]);
         // ∫ pdf_A dA over the emitters = Σ pdf_A(Le_i) A_i = 1.

@@ -3,9 +3,13 @@
 use anyhow::{Context as _, Result};
 use clap::{Args, Parser, Subcommand};
 use glint::integrator::Context;
-use glint::loader::{self, LoadOptions};
+use glint::job::{self, Job, JobOptions};
+use glint::loader;
 use glint::output;
-use glint::render::{render_pass, Film, PassStats, RenderSettings};
+use glint::progressive::render_progressive;
+use glint::render::{Film, PassStats};
+use glint::request::RenderRequest;
+use glint::watch::WatchOptions;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -22,12 +26,78 @@ struct Cli {
 enum Command {
     /// Render a glTF scene (default: the embedded Cornell box) to a linear EXR.
     Render(RenderArgs),
+    /// Follow a job folder (or one scene file) and render it every time it
+    /// changes, writing the EXR and a status file atomically.
+    Watch(WatchArgs),
     /// Read and check everything in a glTF file (every node, mesh, accessor
     /// and buffer) and report what it holds, or the first problem.
     Inspect {
         /// Scene file (.gltf or .glb).
         scene: PathBuf,
     },
+}
+
+/// How to render; shared by `render` and `watch`.
+#[derive(Args)]
+struct RenderOptions {
+    /// Samples per pixel [default: 64; with --time-limit: as many as fit].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    spp: Option<u32>,
+    /// Stop starting new samples after this many seconds of rendering.
+    #[arg(long, value_parser = parse_seconds)]
+    time_limit: Option<f64>,
+    /// Image width in pixels [default: 512].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=32768))]
+    width: Option<u32>,
+    /// Image height in pixels [default: from the camera's aspect ratio, else the width].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=32768))]
+    height: Option<u32>,
+    /// Most scattering events on a path (1 = direct light only; Cycles' "max bounces" + 1) [default: 16].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    max_depth: Option<u32>,
+    /// Multiple importance sampling of lights and BSDF (off: the seed's rule,
+    /// where BSDF-sampled rays ignore emitters) [default: on].
+    #[arg(long, value_parser = ["on", "off"])]
+    mis: Option<String>,
+    /// Random seed: the same seed gives the same image [default: 0].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Camera to render, by node or camera name [default: the first perspective camera].
+    #[arg(long)]
+    camera: Option<String>,
+    /// Which of the file's scenes [default: the file's default scene].
+    #[arg(long)]
+    scene_index: Option<usize>,
+    /// World radiance R,G,B in W·sr⁻¹·m⁻² seen by rays that leave the scene [default: black].
+    #[arg(long, value_delimiter = ',', num_args = 3)]
+    background: Option<Vec<f32>>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+}
+
+impl RenderOptions {
+    fn job_options(&self) -> JobOptions {
+        JobOptions {
+            width: self.width,
+            height: self.height,
+            samples: self.spp,
+            time_limit: self.time_limit,
+            max_depth: self.max_depth,
+            seed: self.seed,
+            mis: self.mis.as_deref().map(|m| m == "on"),
+            camera: self.camera.clone(),
+            scene_index: self.scene_index,
+            background: self.background.as_ref().map(|b| [b[0], b[1], b[2]]),
+        }
+    }
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
+        _ => Err(format!("'{s}' is not a number of seconds > 0")),
+    }
 }
 
 #[derive(Args)]
@@ -40,43 +110,36 @@ struct RenderArgs {
     /// Also write an 8-bit sRGB PNG preview here.
     #[arg(long)]
     png: Option<PathBuf>,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
-    spp: u32,
-    /// Image width in pixels [default: 512].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=32768))]
-    width: Option<u32>,
-    /// Image height in pixels [default: from the camera's aspect ratio, else the width].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=32768))]
-    height: Option<u32>,
-    /// Most scattering events on a path (1 = direct light only; Cycles' "max bounces" + 1).
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1024))]
-    max_depth: u32,
-    /// Multiple importance sampling of lights and BSDF (off: the seed's rule,
-    /// where BSDF-sampled rays ignore emitters).
-    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
-    mis: String,
-    /// Random seed: the same seed gives the same image.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
-    threads: Option<u32>,
-    /// Camera to render, by node or camera name [default: the first perspective camera].
+    /// A render request (JSON, as the Blender addon writes it: size, samples,
+    /// World colour, area lights); options given here override it.
     #[arg(long)]
-    camera: Option<String>,
-    /// Which of the file's scenes [default: the file's default scene].
-    #[arg(long)]
-    scene_index: Option<usize>,
+    request: Option<PathBuf>,
+    #[command(flatten)]
+    options: RenderOptions,
     /// Print timings and ray throughput by kind.
     #[arg(long)]
     stats: bool,
+}
+
+#[derive(Args)]
+struct WatchArgs {
+    /// A job folder (scene.glb or scene.gltf, request.json) or a scene file
+    /// (its request: NAME.request.json beside it).
+    target: PathBuf,
+    /// Defaults for what a render request leaves out.
+    #[command(flatten)]
+    options: RenderOptions,
+    /// Quit when standard input closes: a parent process (the Blender addon)
+    /// holds a pipe open, so the daemon never outlives it.
+    #[arg(long)]
+    exit_with_stdin: bool,
 }
 
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::Watch(args) => watch(args),
         Command::Inspect { scene } => inspect(&scene),
     };
     if let Err(e) = result {
@@ -85,44 +148,36 @@ fn main() {
     }
 }
 
-/// Image size: explicit, else derived from the camera's aspect ratio.
-fn resolution(width: Option<u32>, height: Option<u32>, aspect: Option<f32>) -> (u32, u32) {
-    let aspect = aspect.unwrap_or(1.0);
-    let derive = |v: f32| (v.round() as u32).clamp(1, 32768);
-    match (width, height) {
-        (Some(w), Some(h)) => (w, h),
-        (Some(w), None) => (w, derive(w as f32 / aspect)),
-        (None, Some(h)) => (derive(h as f32 * aspect), h),
-        (None, None) => (512, derive(512.0 / aspect)),
+fn thread_pool(threads: Option<u32>) -> Result<rayon::ThreadPool> {
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        pool = pool.num_threads(t as usize);
     }
+    pool.build().context("cannot start worker threads")
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    let options = LoadOptions { scene_index: args.scene_index, camera: args.camera.clone() };
+    let mut options = args.options.job_options();
+    let mut area_lights = Vec::new();
+    if let Some(path) = &args.request {
+        let request = RenderRequest::read(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        options = options.or(&JobOptions::from(&request));
+        area_lights = request.area_lights;
+    }
     let load_start = Instant::now();
-    let (scene, scene_name) = match &args.scene {
-        Some(path) => (loader::load_file(path, &options)?, path.display().to_string()),
-        None => (
-            loader::load_bytes(glint::DEFAULT_SCENE.as_bytes(), None, glint::DEFAULT_SCENE_NAME, &options)?,
-            glint::DEFAULT_SCENE_NAME.to_string(),
-        ),
-    };
+    let Job { scene, settings, budget } = job::prepare(args.scene.as_deref(), &options, &area_lights).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
+    let scene_name = args.scene.as_ref().map_or(glint::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     for w in &scene.warnings {
         eprintln!("warning: {scene_name}: {w}");
     }
-    let (width, height) = resolution(args.width, args.height, scene.camera.aspect_ratio);
-    let settings = RenderSettings { width, height, spp: args.spp, max_depth: args.max_depth, seed: args.seed, mis: args.mis == "on" };
-
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = args.threads {
-        pool = pool.num_threads(t as usize);
-    }
-    let pool = pool.build().context("cannot start worker threads")?;
+    let (width, height) = (settings.width, settings.height);
+    let pool = thread_pool(args.options.threads)?;
     let threads = pool.current_num_threads();
 
     let (ctx, build_time) = Context::new(&scene);
-    let progress = ProgressBar::with_draw_target(Some(width as u64 * height as u64 * args.spp as u64), ProgressDrawTarget::hidden());
+    let total = (budget.samples > 0).then(|| width as u64 * height as u64 * budget.samples as u64);
+    let progress = ProgressBar::with_draw_target(total, ProgressDrawTarget::hidden());
     progress.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed} (eta {eta})").unwrap_or_else(|_| ProgressStyle::default_bar()));
     let started = Instant::now();
     let shown = AtomicBool::new(false);
@@ -135,7 +190,7 @@ fn render(args: RenderArgs) -> Result<()> {
         }
     };
     let mut film = Film::new(width, height);
-    let stats: PassStats = pool.install(|| render_pass(&ctx, &settings, &mut film, 0..args.spp, &cancel, &on_progress))?;
+    let stats: PassStats = pool.install(|| render_progressive(&ctx, &settings, &budget, &mut film, &cancel, &on_progress, &mut |_| {}))?;
     let seconds = started.elapsed().as_secs_f64();
     progress.finish_and_clear();
 
@@ -143,7 +198,7 @@ fn render(args: RenderArgs) -> Result<()> {
     write_outputs(&args.output, args.png.as_deref(), width, height, &pixels)?;
 
     let mrays = stats.rays.total() as f64 / seconds / 1e6;
-    eprintln!("{width}x{height}, {} spp, {seconds:.2} s, {mrays:.1} Mrays/s -> {}", args.spp, args.output.display());
+    eprintln!("{width}x{height}, {} spp, {seconds:.2} s, {mrays:.1} Mrays/s -> {}", film.samples, args.output.display());
     if stats.discarded > 0 {
         eprintln!("warning: {} sample(s) were NaN or infinite and were discarded", stats.discarded);
     }
@@ -152,10 +207,16 @@ fn render(args: RenderArgs) -> Result<()> {
         eprintln!("scene: {} triangles, {} emissive, {} materials; load {:.3} s, BVH build {:.3} s",
             scene.triangles.len(), ctx.lights.triangles.len(), scene.materials.len(), load_time.as_secs_f64(), build_time.as_secs_f64());
         eprintln!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
-        eprintln!("time: {:.4} s per sample (all pixels), {:.1} Mrays/s", seconds / args.spp as f64, mrays);
+        eprintln!("time: {:.4} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
         eprintln!("discarded non-finite samples: {}", stats.discarded);
     }
     Ok(())
+}
+
+fn watch(args: WatchArgs) -> Result<()> {
+    let pool = thread_pool(args.options.threads)?;
+    let options = WatchOptions { target: args.target, defaults: args.options.job_options(), exit_with_stdin: args.exit_with_stdin };
+    glint::watch::run(&options, &pool)
 }
 
 fn inspect(path: &Path) -> Result<()> {

@@ -17,6 +17,10 @@ pub struct Material {
     pub emission: Vec3,
     /// Emitters emit from both faces only when double-sided.
     pub double_sided: bool,
+    /// A lamp (a Blender area light), not a surface: it emits from its front
+    /// face and is otherwise not there — rays pass through it and it casts
+    /// no shadow, as lights do in Cycles.
+    pub lamp: bool,
 }
 
 impl Default for Material {
@@ -30,6 +34,7 @@ impl Default for Material {
             specular: 1.0,
             emission: Vec3::ZERO,
             double_sided: false,
+            lamp: false,
         }
     }
 }

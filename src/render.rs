@@ -12,6 +12,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 pub const TILE: u32 = 16;
 
+/// Image size: explicit, else derived from the camera's aspect ratio.
+pub fn resolution(width: Option<u32>, height: Option<u32>, aspect: Option<f32>) -> (u32, u32) {
+    let aspect = aspect.unwrap_or(1.0);
+    let derive = |v: f32| (v.round() as u32).clamp(1, 32768);
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, derive(w as f32 / aspect)),
+        (None, Some(h)) => (derive(h as f32 * aspect), h),
+        (None, None) => (512, derive(512.0 / aspect)),
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
     pub width: u32,

@@ -25,11 +25,26 @@ impl Triangle {
     }
 }
 
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,
     pub camera: Camera,
+    /// Radiance (W·sr⁻¹·m⁻²) arriving from every direction no surface
+    /// covers: a plain-colour World. Black by default, as in glTF.
+    pub background: Vec3,
     /// One line each; the CLI prints them, the daemon logs them.
     pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// A black background and no warnings.
+    pub fn new(triangles: Vec<Triangle>, materials: Vec<Material>, camera: Camera) -> Self {
+        Scene { triangles, materials, camera, background: Vec3::ZERO, warnings: Vec::new() }
+    }
+
+    /// Whether a triangle is lamp geometry rather than a surface.
+    pub fn is_lamp(&self, triangle: &Triangle) -> bool {
+        self.materials.get(triangle.material as usize).is_some_and(|m| m.lamp)
+    }
 }

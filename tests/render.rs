@@ -121,3 +121,73 @@ fn scene_without_lights_or_geometry_renders_black() {
     let (img, _) = render(&scene, &settings(8, 8, 2, 4, 0), 1);
     assert!(img.iter().all(|p| *p == Vec3::ZERO));
 }
+
+/// A Lambertian floor under a uniform World of radiance B has radiance ρ·B:
+/// every direction above it sees the World. Its light arrives only through
+/// BSDF sampling (the World is not light-sampled), with and without MIS.
+#[test]
+fn a_floor_under_a_uniform_world_has_radiance_albedo_times_world() {
+    let b = Vec3::new(0.2, 0.5, 1.0);
+    let mut scene = Scene::new(
+        common::horizontal_quad(Vec3::ZERO, 1e4, 0.0, true, 0),
+        vec![common::diffuse("floor", 0.6)],
+        common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5),
+    );
+    scene.background = b;
+    for mis in [true, false] {
+        let (img, stats) = render(&scene, &RenderSettings { mis, ..settings(24, 24, 32, 8, 1) }, 2);
+        common::assert_clean(&img, &stats, "floor under a uniform World");
+        for c in 0..3 {
+            let values: Vec<f32> = img.iter().map(|p| p[c]).collect();
+            let (mean, se) = mean_and_standard_error(&values);
+            let expected = 0.6 * b[c] as f64;
+            assert!((mean - expected).abs() < 5.0 * se + 1e-4 * expected, "channel {c}: {mean} vs {expected} (se {se})");
+        }
+    }
+    // Looking up, a ray that leaves the scene sees the World itself.
+    scene.camera = common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 2.0, 0.0), 0.5);
+    let (img, _) = render(&scene, &settings(8, 8, 1, 8, 1), 1);
+    assert!(img.iter().all(|p| *p == b));
+}
+
+/// A Blender area light from a render request: a disk of radius r, power P,
+/// h above a floor, facing down. Its radiance is L = P/(π·πr²); directly
+/// below it the floor receives E = π·L·r²/(r² + h²) and has radiance ρE/π.
+/// Seen from above, the lamp is not there: no back face, no shadow.
+#[test]
+fn an_area_light_lights_the_floor_as_its_power_says_and_is_invisible_from_behind() {
+    let (r, h, power, albedo) = (0.5f32, 1.0f32, 50.0f32, 0.5f32);
+    let base = Scene::new(
+        common::horizontal_quad(Vec3::ZERO, 1e3, 0.0, true, 0),
+        vec![common::diffuse("floor", albedo)],
+        // Above the lamp, looking straight down through it at a small spot.
+        common::look_at(Vec3::new(0.0, 3.0, 0.0), Vec3::ZERO, 0.01),
+    );
+    // Blender's lamp emits along its local −Z. An unrotated lamp in Blender
+    // points down; the addon's Z-up → Y-up turn (−90° about X) makes that
+    // world −Y, as here.
+    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, h, 0.0));
+    let request = format!(
+        r#"{{"area_lights": [{{"name": "Disk", "shape": "DISK", "size": [{}, 0], "matrix": {:?}, "color": [1, 1, 1], "power": {power}}}]}}"#,
+        2.0 * r,
+        matrix.to_cols_array()
+    );
+    let request = glint::request::RenderRequest::parse(request.as_bytes()).unwrap();
+    let mut scene = base.clone();
+    glint::lamps::add_area_lights(&mut scene, &request.area_lights).unwrap();
+    let l = power / (std::f32::consts::PI * std::f32::consts::PI * r * r);
+    let expected = (albedo * l * r * r / (r * r + h * h)) as f64;
+    for mis in [true, false] {
+        let (img, stats) = render(&scene, &RenderSettings { mis, ..settings(16, 16, 64, 4, 2) }, 2);
+        common::assert_clean(&img, &stats, "area light");
+        let values: Vec<f32> = img.iter().map(|p| p.x).collect();
+        let (mean, se) = mean_and_standard_error(&values);
+        // The spot is 1.5 cm wide: E varies by < 0.01% across it.
+        assert!((mean - expected).abs() < 5.0 * se + 1e-3 * expected, "mis {mis}: {mean} vs {expected} (se {se})");
+        assert!(se < 0.01 * expected, "se {se}");
+    }
+    // From below, the camera sees the lamp's face: radiance L.
+    scene.camera = common::look_at(Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.0, h, 0.0), 0.01);
+    let (img, _) = render(&scene, &settings(4, 4, 1, 1, 2), 1);
+    assert!(img.iter().all(|p| (p.x - l).abs() < 1e-4 * l), "{:?} vs {l}", img[0]);
+}

@@ -19,7 +19,7 @@ fn glossy_floor_and_small_light(roughness: f32, metallic: f32) -> Scene {
     let floor = Material { name: "floor".into(), base_color: Vec3::splat(base), metallic, roughness, ..Material::default() };
     // The camera looks at the light's mirror point on the floor.
     let camera = look_at(Vec3::new(0.0, 1.0, 1.5), Vec3::new(0.0, 0.0, 0.5), 0.5);
-    Scene { triangles, materials: vec![floor, emitter(Vec3::splat(400.0))], camera, warnings: vec![] }
+    Scene::new(triangles, vec![floor, emitter(Vec3::splat(400.0))], camera)
 }
 
 fn mis(on: bool, s: RenderSettings) -> RenderSettings {
@@ -108,12 +108,7 @@ const FLOOR_ALBEDO: f32 = 0.5;
 /// A Lambertian floor (y = 0, half-size `half`, material 0) and a camera
 /// looking down at it; the caller adds emitters.
 fn floor_scene(half: f32, camera: glint::camera::Camera) -> Scene {
-    Scene {
-        triangles: horizontal_quad(Vec3::ZERO, half, 0.0, true, 0),
-        materials: vec![diffuse("floor", FLOOR_ALBEDO)],
-        camera,
-        warnings: vec![],
-    }
+    Scene::new(horizontal_quad(Vec3::ZERO, half, 0.0, true, 0), vec![diffuse("floor", FLOOR_ALBEDO)], camera)
 }
 
 /// A small emitting triangle centred at `c`, facing down, of area `area`.
@@ -266,7 +261,7 @@ fn emitters_of_zero_strength_are_not_lights() {
 // ---------------------------------------------------------------- scales
 
 fn transformed(scene: &Scene, scale: f32, shift: Vec3) -> Scene {
-    let mut out = Scene { triangles: scene.triangles.clone(), materials: scene.materials.clone(), camera: scene.camera.clone(), warnings: vec![] };
+    let mut out = scene.clone();
     for t in &mut out.triangles {
         t.p = t.p.map(|p| p * scale + shift);
     }

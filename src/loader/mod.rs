@@ -143,7 +143,9 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOptions) -> R
     builder.walk_scene(options.scene_index)?;
     let camera = builder.pick_camera(options.camera.as_deref())?;
     let warnings = builder.warnings();
-    Ok(Scene { triangles: builder.triangles, materials: builder.materials, camera, warnings })
+    let mut scene = Scene::new(builder.triangles, builder.materials, camera);
+    scene.warnings = warnings;
+    Ok(scene)
 }
 
 #[derive(Default)]
@@ -469,6 +471,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         roughness: finite_or(pbr.roughness_factor.0, 1.0).clamp(0.0, 1.0),
         emission: emissive * strength,
         double_sided: m.double_sided,
+        lamp: false,
     }
 }
 

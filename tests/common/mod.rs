@@ -147,7 +147,8 @@ pub fn closed_box(albedo: f32, emission: f32) -> Scene {
         specular: 0.0, // KHR_materials_specular 0: a pure Lambertian wall
         emission: Vec3::splat(emission),
         double_sided: false,
+        lamp: false,
     };
     let camera = Camera::from_world("inside".into(), &Mat4::from_translation(Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
-    Scene { triangles, materials: vec![material], camera, warnings: vec![] }
+    Scene::new(triangles, vec![material], camera)
 }

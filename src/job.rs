@@ -1,0 +1,110 @@
+//! One render job: a scene file plus the options that say how to render it,
+//! gathered from the command line and a render request, turned into
+//! everything the renderer needs. Shared by `glint render` and `glint watch`.
+
+use crate::lamps::AreaLight;
+use crate::loader::{self, LoadOptions};
+use crate::progressive::Budget;
+use crate::render::{resolution, RenderSettings};
+use crate::request::RenderRequest;
+use crate::scene::Scene;
+use glam::Vec3;
+use std::path::Path;
+use std::time::Duration;
+
+pub const DEFAULT_SAMPLES: u32 = 64;
+pub const DEFAULT_MAX_DEPTH: u32 = 16;
+
+/// How to render; a field left `None` falls through to the next source.
+#[derive(Clone, Debug, Default)]
+pub struct JobOptions {
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub samples: Option<u32>,
+    pub time_limit: Option<f64>,
+    pub max_depth: Option<u32>,
+    pub seed: Option<u64>,
+    pub mis: Option<bool>,
+    pub camera: Option<String>,
+    pub scene_index: Option<usize>,
+    pub background: Option<[f32; 3]>,
+}
+
+impl JobOptions {
+    /// These options, with gaps filled from `fallback`.
+    pub fn or(self, fallback: &JobOptions) -> JobOptions {
+        let f = fallback.clone();
+        JobOptions {
+            width: self.width.or(f.width),
+            height: self.height.or(f.height),
+            samples: self.samples.or(f.samples),
+            time_limit: self.time_limit.or(f.time_limit),
+            max_depth: self.max_depth.or(f.max_depth),
+            seed: self.seed.or(f.seed),
+            mis: self.mis.or(f.mis),
+            camera: self.camera.or(f.camera),
+            scene_index: self.scene_index.or(f.scene_index),
+            background: self.background.or(f.background),
+        }
+    }
+}
+
+impl From<&RenderRequest> for JobOptions {
+    fn from(r: &RenderRequest) -> Self {
+        JobOptions {
+            width: r.width,
+            height: r.height,
+            samples: r.samples,
+            time_limit: r.time_limit,
+            max_depth: r.max_depth,
+            seed: r.seed,
+            mis: r.mis,
+            camera: r.camera.clone(),
+            scene_index: None,
+            background: r.background,
+        }
+    }
+}
+
+pub struct Job {
+    pub scene: Scene,
+    pub settings: RenderSettings,
+    pub budget: Budget,
+}
+
+/// Load a scene (None: the embedded default) and apply the options and area
+/// lights. Errors are one line naming the file.
+pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, area_lights: &[AreaLight]) -> Result<Job, String> {
+    let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone() };
+    let (mut scene, name) = match scene_file {
+        Some(path) => (loader::load_file(path, &load).map_err(|e| e.to_string())?, path.display().to_string()),
+        None => (
+            loader::load_bytes(crate::DEFAULT_SCENE.as_bytes(), None, crate::DEFAULT_SCENE_NAME, &load).map_err(|e| e.to_string())?,
+            crate::DEFAULT_SCENE_NAME.to_string(),
+        ),
+    };
+    if let Some(b) = options.background {
+        if b.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+            return Err(format!("{name}: background must be finite and ≥ 0"));
+        }
+        scene.background = Vec3::from(b);
+    }
+    crate::lamps::add_area_lights(&mut scene, area_lights).map_err(|e| format!("{name}: {e}"))?;
+    let (width, height) = resolution(options.width, options.height, scene.camera.aspect_ratio);
+    let time = options.time_limit.filter(|t| *t > 0.0).map(Duration::from_secs_f64);
+    let samples = match options.samples {
+        Some(0) if time.is_none() => return Err(format!("{name}: samples 0 (unlimited) needs a time limit")),
+        Some(n) => n,
+        None if time.is_some() => 0,
+        None => DEFAULT_SAMPLES,
+    };
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: samples,
+        max_depth: options.max_depth.unwrap_or(DEFAULT_MAX_DEPTH),
+        seed: options.seed.unwrap_or(0),
+        mis: options.mis.unwrap_or(true),
+    };
+    Ok(Job { scene, settings, budget: Budget { samples, time } })
+}

@@ -1,0 +1,115 @@
+//! A render request: the small JSON file the Blender addon writes beside the
+//! scene (and `glint render --request` reads) with what glTF cannot say —
+//! image size, samples or a time budget, the camera, the World colour and
+//! Blender's area lights. Every field is optional; unknown fields are an
+//! error, so a misspelt one is not silently ignored.
+//!
+//! ```json
+//! { "job": "render-3", "width": 640, "height": 360, "samples": 128,
+//!   "time_limit": 0, "max_depth": 13, "camera": "Camera", "seed": 0,
+//!   "output": "render.exr", "background": [0.05, 0.05, 0.05],
+//!   "area_lights": [ { "name": "Area", "shape": "RECTANGLE",
+//!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
+//!     "power": 100 } ] }
+//! ```
+
+use crate::lamps::AreaLight;
+use serde::Deserialize;
+use std::path::Path;
+
+/// Largest request file read (area lights are ~300 bytes each).
+pub const MAX_REQUEST_BYTES: u64 = 16 << 20;
+
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderRequest {
+    /// Echoed in the daemon's status, so a client knows which request a
+    /// status is about.
+    pub job: Option<String>,
+    /// Scene file name in the job folder [default: scene.glb, else scene.gltf].
+    pub scene: Option<String>,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// Samples per pixel; 0 with a time limit: as many as fit.
+    pub samples: Option<u32>,
+    /// Seconds of rendering (not counting load and BVH build); 0: none.
+    pub time_limit: Option<f64>,
+    /// Most scattering events on a path (Cycles' max bounces + 1).
+    pub max_depth: Option<u32>,
+    /// Camera by node or camera name.
+    pub camera: Option<String>,
+    pub seed: Option<u64>,
+    /// Multiple importance sampling on (default) or the seed's rule.
+    pub mis: Option<bool>,
+    /// Where the EXR goes, relative to the request's folder.
+    pub output: Option<String>,
+    /// World radiance in W·sr⁻¹·m⁻² (Blender: Background colour × strength).
+    pub background: Option<[f32; 3]>,
+    pub area_lights: Vec<AreaLight>,
+}
+
+impl RenderRequest {
+    /// Read and check a request file; errors are one line without the path.
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+        if meta.len() > MAX_REQUEST_BYTES {
+            return Err(format!("request is {} bytes; at most {MAX_REQUEST_BYTES} are read", meta.len()));
+        }
+        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+        Self::parse(&bytes)
+    }
+
+    pub fn parse(bytes: &[u8]) -> Result<Self, String> {
+        let r: RenderRequest = serde_json::from_slice(bytes).map_err(|e| format!("not a valid render request: {e}"))?;
+        r.check()?;
+        Ok(r)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if v.is_some_and(|v| !(1..=32768).contains(&v)) {
+                return Err(format!("{name} must be 1 to 32768"));
+            }
+        }
+        if self.max_depth.is_some_and(|d| !(1..=1024).contains(&d)) {
+            return Err("max_depth must be 1 to 1024".into());
+        }
+        if self.time_limit.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
+            return Err("time_limit must be a number of seconds ≥ 0".into());
+        }
+        if self.samples == Some(0) && self.time_limit.unwrap_or(0.0) == 0.0 {
+            return Err("samples 0 (unlimited) needs a time_limit".into());
+        }
+        if self.background.is_some_and(|b| b.iter().any(|c| !(c.is_finite() && *c >= 0.0))) {
+            return Err("background must be three finite numbers ≥ 0".into());
+        }
+        Ok(())
+    }
+
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_request_parses_and_bad_ones_say_why() {
+        let ok = br#"{"job": "j1", "width": 64, "height": 32, "samples": 0, "time_limit": 2.5,
+            "background": [0.1, 0.2, 0.3], "area_lights": [{"shape": "DISK", "size": [1, 1],
+            "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,2,0,1], "color": [1,1,1], "power": 10}]}"#;
+        let r = RenderRequest::parse(ok).unwrap();
+        assert_eq!((r.width, r.height, r.area_lights.len()), (Some(64), Some(32), 1));
+        for (bad, why) in [
+            (&br#"{"widht": 64}"#[..], "unknown field"),
+            (br#"{"width": 0}"#, "width"),
+            (br#"{"samples": 0}"#, "time_limit"),
+            (br#"{"background": [1, 1]}"#, "length 3"),
+            (br#"{"time_limit": -1}"#, "time_limit"),
+            (br#"{"area_lights": [{"shape": "STAR", "size": [1,1], "matrix": [], "color": [1,1,1], "power": 1}]}"#, "STAR"),
+            (br#"{"width": 64"#, "EOF"),
+        ] {
+            let e = RenderRequest::parse(bad).unwrap_err();
+            assert!(e.contains(why) && !e.contains('\n'), "{e}");
+        }
+    }
+}
