@@ -1,0 +1,131 @@
+"""What Glint is given for a render: the scene through Blender's own glTF
+exporter, and a render request with what glTF cannot carry.
+
+Through glTF (Principled BSDF → pbrMetallicRoughness, the exporter's job):
+base colour, metallic, roughness, emission colour × strength
+(KHR_materials_emissive_strength), Specular IOR Level 0 as
+KHR_materials_specular 0, cameras and mesh geometry with modifiers applied.
+Not carried, or not yet rendered by Glint: textures, transmission, and other
+Principled inputs (coat, sheen, subsurface, anisotropy, thin film), point,
+spot and sun lights, and World node setups other than a plain Background.
+
+Through the request: resolution × percentage, the scene camera, samples,
+bounces, time limit, seed, the World colour, and every area light (glTF has
+none): shape, size, world transform, colour and power.
+"""
+
+import os
+
+import bpy
+from mathutils import Matrix
+
+# Blender's world is Z-up; glTF's is Y-up: (x, y, z) → (x, z, −y), as the
+# exporter's export_yup does.
+Z_UP_TO_Y_UP = Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
+
+
+def export_scene(path, frame, subframe):
+    """Export the active scene at a frame as GLB to `path` (written whole,
+    then renamed)."""
+    # The exporter reads the view layer's depsgraph, which an animation
+    # render does not move to the frame it renders: evaluate that frame.
+    bpy.context.scene.frame_set(frame, subframe=subframe)
+    directory, name = os.path.split(path)
+    tmp = os.path.join(directory, f".{name}.export.glb")
+    result = bpy.ops.export_scene.gltf(
+        filepath=tmp,
+        export_format="GLB",
+        use_active_scene=True,
+        use_renderable=True,
+        use_selection=False,
+        export_apply=True,
+        export_yup=True,
+        export_cameras=True,
+        export_lights=True,
+        export_import_convert_lighting_mode="COMPAT",
+        export_animations=False,
+        # Without it, objects are exported as at frame 0, not the frame rendered.
+        export_current_frame=True,
+        export_skins=False,
+        export_morph=False,
+        export_extras=False,
+        export_materials="EXPORT",
+    )
+    if "FINISHED" not in result or not os.path.isfile(tmp):
+        raise RuntimeError("Blender's glTF exporter did not finish")
+    os.replace(tmp, path)
+
+
+def world_background(scene):
+    """(radiance RGB, problem or None) of the World: a plain Background node's
+    colour × strength, or the World colour without nodes."""
+    world = scene.world
+    if world is None:
+        return [0.0, 0.0, 0.0], None
+    if not world.use_nodes or world.node_tree is None:
+        return list(world.color[:3]), None
+    outputs = [n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output]
+    links = outputs[0].inputs["Surface"].links if outputs else []
+    if not links:
+        return [0.0, 0.0, 0.0], None
+    node = links[0].from_node
+    if node.type != "BACKGROUND" or node.inputs["Color"].is_linked or node.inputs["Strength"].is_linked:
+        return [0.0, 0.0, 0.0], f"the World's node setup ({node.name}) is not a plain Background colour; Glint renders it black"
+    strength = node.inputs["Strength"].default_value
+    return [c * strength for c in node.inputs["Color"].default_value[:3]], None
+
+
+def area_lights(depsgraph):
+    """Every visible area light (instances included) as request records."""
+    records = []
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if obj.type != "LIGHT" or obj.data.type != "AREA":
+            continue
+        light = obj.data
+        shape = light.shape
+        size_y = light.size_y if shape in {"RECTANGLE", "ELLIPSE"} else light.size
+        m = Z_UP_TO_Y_UP @ instance.matrix_world
+        records.append(
+            {
+                "name": obj.name,
+                "shape": shape,
+                "size": [light.size, size_y],
+                "matrix": [m[r][c] for c in range(4) for r in range(4)],  # column-major
+                "color": list(light.color[:3]),
+                "power": light.energy,
+            }
+        )
+    return records
+
+
+def render_request(depsgraph, job, width, height):
+    """The request for this render, and warnings for the user."""
+    scene = depsgraph.scene
+    settings = scene.glint
+    warnings = []
+    background, problem = world_background(scene)
+    if problem:
+        warnings.append(problem)
+    request = {
+        "job": job,
+        "scene": "scene.glb",
+        "width": width,
+        "height": height,
+        "samples": settings.samples,
+        "max_depth": settings.max_bounces + 1,
+        "seed": settings.seed,
+        "background": background,
+        "area_lights": area_lights(depsgraph),
+    }
+    if settings.time_limit > 0:
+        request["time_limit"] = settings.time_limit
+    if scene.camera is not None:
+        request["camera"] = scene.camera.name
+    return request, warnings
+
+
+def json_bytes(obj):
+    import json
+
+    return json.dumps(obj, indent=1).encode()

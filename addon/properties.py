@@ -1,0 +1,70 @@
+"""Glint's render settings and their panel in the Render properties."""
+
+import bpy
+
+
+class GlintRenderSettings(bpy.types.PropertyGroup):
+    samples: bpy.props.IntProperty(name="Samples", description="Samples per pixel", default=64, min=1, max=1_000_000)
+    max_bounces: bpy.props.IntProperty(
+        name="Max Bounces", description="Most bounces of a path (as Cycles' Max Bounces: 0 is direct light only)", default=12, min=0, max=1023
+    )
+    time_limit: bpy.props.FloatProperty(
+        name="Time Limit", description="Stop adding samples after this long (0: no limit)", default=0.0, min=0.0, subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE"
+    )
+    seed: bpy.props.IntProperty(name="Seed", description="Random seed: the same seed gives the same image", default=0, min=0)
+    threads: bpy.props.IntProperty(
+        name="Threads", description="Render threads (0: all cores but one, so Blender stays responsive)", default=0, min=0, max=1024
+    )
+
+
+class RENDER_PT_glint_sampling(bpy.types.Panel):
+    bl_label = "Glint"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {"GLINT"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.glint
+        col = layout.column()
+        col.prop(settings, "samples")
+        col.prop(settings, "time_limit")
+        col.prop(settings, "max_bounces")
+        col.prop(settings, "seed")
+        col.prop(settings, "threads")
+
+
+# Blender's own panels (output format, dimensions, lights, materials...)
+# list the engines they draw for; the ones Blender's renderer uses apply to
+# Glint as well. These two are about Blender's own render passes.
+_EXCLUDED_PANELS = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes"}
+
+
+def _shared_panels():
+    for panel in bpy.types.Panel.__subclasses__():
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if engines is not None and "BLENDER_RENDER" in engines and panel.__name__ not in _EXCLUDED_PANELS:
+            yield panel
+
+
+def register():
+    bpy.utils.register_class(GlintRenderSettings)
+    bpy.types.Scene.glint = bpy.props.PointerProperty(type=GlintRenderSettings)
+    bpy.utils.register_class(RENDER_PT_glint_sampling)
+    for panel in _shared_panels():
+        panel.COMPAT_ENGINES.add("GLINT")
+
+
+def unregister():
+    for panel in _shared_panels():
+        panel.COMPAT_ENGINES.discard("GLINT")
+    bpy.utils.unregister_class(RENDER_PT_glint_sampling)
+    del bpy.types.Scene.glint
+    bpy.utils.unregister_class(GlintRenderSettings)
