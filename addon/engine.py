@@ -77,6 +77,7 @@ class GlintRenderEngine(bpy.types.RenderEngine):
         cancelled_at = None
         handed_over = time.monotonic()
         shown_stats = None
+        warned = False
         while True:
             if cancelled_at is None and self._cancel_requested():
                 d.cancel()
@@ -100,6 +101,10 @@ class GlintRenderEngine(bpy.types.RenderEngine):
                 self.report({"ERROR"}, f"Glint: {status.get('message', 'render failed')}")
                 return False
             if mine and state in {"rendering", "done"}:
+                if not warned:
+                    for w in status.get("warnings", []):
+                        self.report({"WARNING"}, f"Glint: {w}")
+                    warned = True
                 samples, total = status.get("samples", 0), status.get("total_samples", 0)
                 elapsed = status.get("elapsed", 0.0)
                 if total:

@@ -10,7 +10,7 @@
 //! | `request.json` | client | a render request (`request.rs`); optional |
 //! | `cancel` | client | stops the render in progress; the daemon removes it |
 //! | `render.exr` | daemon | the image (the request's `output` may name another), rewritten as samples accumulate |
-//! | `status.json` | daemon | `{job, state, samples, total_samples, elapsed, width, height, output, message, sequence}` |
+//! | `status.json` | daemon | `{job, state, samples, total_samples, elapsed, width, height, output, message, warnings, sequence}` |
 //!
 //! Watching a scene file `NAME.glb` instead, the others are `NAME.request.json`,
 //! `NAME.cancel`, `NAME.exr` and `NAME.status.json` beside it.
@@ -150,6 +150,8 @@ struct StatusLine<'a> {
     size: (u32, u32),
     output: Option<&'a Path>,
     message: &'a str,
+    /// The scene's load warnings, for the client to show.
+    warnings: &'a [String],
 }
 
 impl Status<'_> {
@@ -158,7 +160,7 @@ impl Status<'_> {
         let json = serde_json::json!({
             "job": s.job, "state": s.state, "samples": s.samples, "total_samples": s.total_samples,
             "elapsed": s.elapsed, "width": s.size.0, "height": s.size.1,
-            "output": s.output.map(|p| p.display().to_string()), "message": s.message, "sequence": sequence,
+            "output": s.output.map(|p| p.display().to_string()), "message": s.message, "warnings": s.warnings, "sequence": sequence,
         });
         if let Err(e) = output::write_bytes_atomically(&self.paths.status, json.to_string().as_bytes()) {
             eprintln!("glint watch: {e:#}");
@@ -172,7 +174,7 @@ impl Status<'_> {
     }
 
     fn simple(&self, job: Option<&str>, state: &str, message: &str) {
-        self.write(StatusLine { job, state, samples: 0, total_samples: 0, elapsed: 0.0, size: (0, 0), output: None, message });
+        self.write(StatusLine { job, state, samples: 0, total_samples: 0, elapsed: 0.0, size: (0, 0), output: None, message, warnings: &[] });
     }
 }
 
@@ -314,6 +316,7 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
         size: (settings.width, settings.height),
         output: Some(&output_path),
         message,
+        warnings: &job.scene.warnings,
     };
     status.write(line("rendering", 0, 0.0, ""));
     let mut last_image: Option<Instant> = None;

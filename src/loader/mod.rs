@@ -156,6 +156,7 @@ struct Stats {
     bad_normals: usize,
     dangling_indices: usize,
     textured_materials: usize,
+    punctual_lights: usize,
 }
 
 struct CameraCandidate {
@@ -274,6 +275,9 @@ impl<'a> Builder<'a> {
             let world = parent * local_transform(node);
             if let Some(mesh) = node.mesh {
                 self.add_mesh(mesh.value(), &world)?;
+            }
+            if node.extensions.as_ref().is_some_and(|e| e.khr_lights_punctual.is_some()) {
+                self.stats.punctual_lights += 1;
             }
             if let Some(camera) = node.camera {
                 self.cameras.push(CameraCandidate { node_name: node.name.clone(), camera: camera.value(), world });
@@ -428,6 +432,9 @@ impl<'a> Builder<'a> {
         }
         if s.dangling_indices > 0 {
             w.push(format!("ignored {} trailing index(es) that do not form a whole triangle", s.dangling_indices));
+        }
+        if s.punctual_lights > 0 {
+            w.push(format!("{} point, spot or sun light(s) (KHR_lights_punctual) are not rendered yet; emissive surfaces and area lights are", s.punctual_lights));
         }
         if s.textured_materials > 0 {
             w.push(format!("{} material(s) use textures, which are not supported yet: their factors are used", s.textured_materials));

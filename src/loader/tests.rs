@@ -184,6 +184,17 @@ fn non_triangle_modes_are_skipped_with_a_count() {
 }
 
 #[test]
+fn punctual_lights_are_named_in_a_warning() {
+    let mut d = base_doc();
+    d["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    d["extensions"] = json!({"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 10.0}]}});
+    d["nodes"].as_array_mut().unwrap().push(json!({"name": "Lamp", "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    d["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    let s = load(&d).unwrap();
+    assert!(s.warnings.iter().any(|w| w.contains("1 point, spot or sun light(s)")), "{:?}", s.warnings);
+}
+
+#[test]
 fn cameras_first_perspective_by_name_and_errors() {
     let mut d = base_doc();
     d["cameras"] = json!([
