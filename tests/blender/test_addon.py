@@ -12,6 +12,7 @@ import pytest
 
 import glint
 from glint import daemon
+from helpers import give_principled, read_exr
 
 WIDTH, HEIGHT = 48, 36
 
@@ -21,19 +22,9 @@ def build_scene(scene):
     area light, a plain-colour World and a camera: everything Glint reads."""
     bpy.ops.mesh.primitive_plane_add(size=20)
     bpy.ops.mesh.primitive_uv_sphere_add(radius=1, location=(0, 0, 1))
-    red = bpy.data.materials.new("Red")
-    red.use_nodes = True
-    bsdf = red.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (0.8, 0.1, 0.1, 1)
-    bsdf.inputs["Roughness"].default_value = 0.4
-    bpy.context.object.data.materials.append(red)
+    give_principled(bpy.context.object, "Red", Base_Color=(0.8, 0.1, 0.1, 1), Roughness=0.4)
     bpy.ops.mesh.primitive_cube_add(size=0.5, location=(2, 1, 0.25))
-    glow = bpy.data.materials.new("Glow")
-    glow.use_nodes = True
-    g = glow.node_tree.nodes["Principled BSDF"]
-    g.inputs["Emission Color"].default_value = (1, 0.8, 0.2, 1)
-    g.inputs["Emission Strength"].default_value = 5.0
-    bpy.context.object.data.materials.append(glow)
+    give_principled(bpy.context.object, "Glow", Emission_Color=(1, 0.8, 0.2, 1), Emission_Strength=5.0)
     light = bpy.data.lights.new("Panel", "AREA")
     light.shape = "RECTANGLE"
     light.size, light.size_y = 2.0, 1.0
@@ -57,19 +48,6 @@ def build_scene(scene):
     scene.glint.samples = 8
     scene.glint.max_bounces = 4
     return cam
-
-
-def read_exr(path):
-    """An EXR through Blender's image reader, as a (height, width, 4) array
-    (bottom row first, as Blender stores images)."""
-    image = bpy.data.images.load(str(path), check_existing=False)
-    try:
-        w, h = image.size
-        px = np.empty(w * h * 4, dtype=np.float32)
-        image.pixels.foreach_get(px)
-        return px.reshape(h, w, 4)
-    finally:
-        bpy.data.images.remove(image)
 
 
 def render_to(path):

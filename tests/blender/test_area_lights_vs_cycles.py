@@ -4,22 +4,17 @@ so every pixel estimates the same irradiance. Cycles' convention is radiance
 P/(π·A) from the front face; Glint's lamps must give the same floor."""
 
 import math
-import os
 
 import bpy
 import numpy as np
 import pytest
+from helpers import give_principled, read_exr
 
 
 def scene_with_light(scene, shape, rotation):
     bpy.ops.mesh.primitive_plane_add(size=200)
-    material = bpy.data.materials.new("Floor")
-    material.use_nodes = True
-    bsdf = material.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1)
-    bsdf.inputs["Roughness"].default_value = 1.0
-    bsdf.inputs["Specular IOR Level"].default_value = 0.0  # pure Lambert in both renderers
-    bpy.context.object.data.materials.append(material)
+    # Specular IOR Level 0: pure Lambert in both renderers.
+    give_principled(bpy.context.object, "Floor", Base_Color=(0.5, 0.5, 0.5, 1), Roughness=1.0, Specular_IOR_Level=0.0)
     light = bpy.data.lights.new("Lamp", "AREA")
     light.shape, light.size, light.size_y, light.energy = shape, 1.0, 0.5, 50.0
     light.color = (1.0, 0.6, 0.3)
@@ -36,11 +31,7 @@ def scene_with_light(scene, shape, rotation):
 
 
 def mean_and_error(path):
-    image = bpy.data.images.load(str(path), check_existing=False)
-    px = np.empty(image.size[0] * image.size[1] * 4, np.float32)
-    image.pixels.foreach_get(px)
-    bpy.data.images.remove(image)
-    rgb = px.reshape(-1, 4)[:, :3].astype(np.float64)
+    rgb = read_exr(path)[..., :3].reshape(-1, 3).astype(np.float64)
     return rgb.mean(axis=0), rgb.std(axis=0) / math.sqrt(len(rgb))
 
 
