@@ -23,7 +23,7 @@
 //! it hits, so that emission takes weight 1; light samples see f = 0 there.
 
 use crate::accel::{Accel, Hit};
-use crate::bsdf::SeedBsdf;
+use crate::bsdf::Bsdf;
 use crate::lights::Lights;
 use crate::material::Material;
 use crate::render::RenderSettings;
@@ -162,7 +162,7 @@ fn light_pdf_solid_angle(pdf_area: f32, dist2: f32, cos_light: f32) -> f32 {
 
 /// L_dir at one surface point: one light sample and its shadow ray,
 /// MIS-weighted against BSDF sampling when `mis` is set.
-fn direct_light(ctx: &Context, si: &SurfaceHit, bsdf: &SeedBsdf, wo: Vec3, mis: bool, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn direct_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
     let Some(ls) = ctx.lights.sample(ctx.scene, u_pick, u) else { return Vec3::ZERO };
     let to_light = ls.point - si.p;
@@ -218,7 +218,7 @@ fn emission_seen(ctx: &Context, material: &Material, front_face: bool, t: f32, c
 }
 
 /// Radiance arriving along a camera ray.
-pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSettings, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+pub fn radiance<B: Bsdf>(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSettings, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let max_depth = settings.max_depth;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
@@ -247,7 +247,7 @@ pub fn radiance(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSetting
         let material = &ctx.scene.materials[si.material as usize];
         l += beta * emission_seen(ctx, material, si.front_face, hit.t, si.ng.dot(d), depth, bsdf_pdf, from_delta, settings.mis);
         let wo = si.frame.to_local(-d);
-        let bsdf = SeedBsdf::new(material, wo);
+        let bsdf = B::new(material, wo);
         let can_extend = depth + 1 < max_depth;
         l += beta * direct_light(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);
 

@@ -2,6 +2,7 @@
 //! gathered from the command line and a render request, turned into
 //! everything the renderer needs. Shared by `glint render` and `glint watch`.
 
+use crate::bsdf::BsdfModel;
 use crate::lamps::AreaLight;
 use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
@@ -28,6 +29,7 @@ pub struct JobOptions {
     pub camera: Option<String>,
     pub scene_index: Option<usize>,
     pub background: Option<[f32; 3]>,
+    pub bsdf: Option<BsdfModel>,
 }
 
 impl JobOptions {
@@ -45,6 +47,7 @@ impl JobOptions {
             camera: self.camera.or(f.camera),
             scene_index: self.scene_index.or(f.scene_index),
             background: self.background.or(f.background),
+            bsdf: self.bsdf.or(f.bsdf),
         }
     }
 }
@@ -62,6 +65,7 @@ impl From<&RenderRequest> for JobOptions {
             camera: r.camera.clone(),
             scene_index: None,
             background: r.background,
+            bsdf: r.bsdf,
         }
     }
 }
@@ -105,6 +109,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, area_lights: &[A
         max_depth: options.max_depth.unwrap_or(DEFAULT_MAX_DEPTH),
         seed: options.seed.unwrap_or(0),
         mis: options.mis.unwrap_or(true),
+        bsdf: options.bsdf.unwrap_or_default(),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

@@ -2,6 +2,7 @@
 
 use anyhow::{Context as _, Result};
 use clap::{Args, Parser, Subcommand};
+use glint::bsdf::BsdfModel;
 use glint::integrator::Context;
 use glint::job::{self, Job, JobOptions};
 use glint::loader;
@@ -59,6 +60,9 @@ struct RenderOptions {
     /// where BSDF-sampled rays ignore emitters) [default: on].
     #[arg(long, value_parser = ["on", "off"])]
     mis: Option<String>,
+    /// BSDF model: what Cycles' Principled BSDF does, or the seed's formulas [default: principled].
+    #[arg(long, value_parser = ["principled", "seed"])]
+    bsdf: Option<String>,
     /// Random seed: the same seed gives the same image [default: 0].
     #[arg(long)]
     seed: Option<u64>,
@@ -89,6 +93,7 @@ impl RenderOptions {
             camera: self.camera.clone(),
             scene_index: self.scene_index,
             background: self.background.as_ref().map(|b| [b[0], b[1], b[2]]),
+            bsdf: self.bsdf.as_deref().map(|b| if b == "seed" { BsdfModel::Seed } else { BsdfModel::Principled }),
         }
     }
 }

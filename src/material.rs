@@ -21,6 +21,9 @@ pub struct Material {
     /// face and is otherwise not there — rays pass through it and it casts
     /// no shadow, as lights do in Cycles.
     pub lamp: bool,
+    /// Cycles' "Multiscatter GGX" (its default): the glossy lobes get back
+    /// the energy single scattering loses. Off: plain "GGX".
+    pub multiscatter: bool,
 }
 
 impl Default for Material {
@@ -35,6 +38,7 @@ impl Default for Material {
             emission: Vec3::ZERO,
             double_sided: false,
             lamp: false,
+            multiscatter: true,
         }
     }
 }

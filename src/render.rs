@@ -3,6 +3,7 @@
 //! sample index), so an image is the same for any thread count or any split
 //! of its samples into passes.
 
+use crate::bsdf::{Bsdf, BsdfModel, PrincipledBsdf, SeedBsdf};
 use crate::integrator::{radiance, Context, RayCounts};
 use crate::rng::Rng;
 use glam::{Vec2, Vec3};
@@ -34,6 +35,7 @@ pub struct RenderSettings {
     /// Combine light and BSDF sampling by multiple importance sampling;
     /// off is the seed's rule (BSDF-sampled rays ignore emitters).
     pub mis: bool,
+    pub bsdf: BsdfModel,
 }
 
 /// Sums of radiance samples per pixel, row-major from the top-left.
@@ -86,6 +88,21 @@ pub fn render_pass(
     cancel: &AtomicBool,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<PassStats, Cancelled> {
+    // One monomorphised kernel per model: the choice is made once a pass.
+    match settings.bsdf {
+        BsdfModel::Seed => render_pass_with::<SeedBsdf>(ctx, settings, film, samples, cancel, progress),
+        BsdfModel::Principled => render_pass_with::<PrincipledBsdf>(ctx, settings, film, samples, cancel, progress),
+    }
+}
+
+fn render_pass_with<B: Bsdf>(
+    ctx: &Context,
+    settings: &RenderSettings,
+    film: &mut Film,
+    samples: Range<u32>,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<PassStats, Cancelled> {
     let (w, h) = (settings.width, settings.height);
     assert_eq!((film.width, film.height), (w, h), "film does not match the settings");
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE))).collect();
@@ -106,7 +123,7 @@ pub fn render_pass(
                         let mut rng = Rng::for_sample(settings.seed, pixel, s as u64);
                         let jitter = rng.next_2d();
                         let (o, d) = ctx.scene.camera.ray(Vec2::new(x as f32, y as f32) + jitter, w, h);
-                        let l = radiance(ctx, o, d, settings, &mut rng, &mut stats.rays);
+                        let l = radiance::<B>(ctx, o, d, settings, &mut rng, &mut stats.rays);
                         if l.is_finite() {
                             sum += l;
                         } else {

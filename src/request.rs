@@ -13,6 +13,7 @@
 //!     "power": 100 } ] }
 //! ```
 
+use crate::bsdf::BsdfModel;
 use crate::lamps::AreaLight;
 use serde::Deserialize;
 use std::path::Path;
@@ -41,6 +42,8 @@ pub struct RenderRequest {
     pub seed: Option<u64>,
     /// Multiple importance sampling on (default) or the seed's rule.
     pub mis: Option<bool>,
+    /// "principled" (default) or "seed".
+    pub bsdf: Option<BsdfModel>,
     /// Where the EXR goes, relative to the request's folder.
     pub output: Option<String>,
     /// World radiance in W·sr⁻¹·m⁻² (Blender: Background colour × strength).

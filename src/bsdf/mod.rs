@@ -1,5 +1,9 @@
+//! BSDF models, in the local shading frame (normal = +z): the seed's below,
+//! and the Principled one Cycles uses in `principled.rs`, both behind the
+//! `Bsdf` trait the integrator is generic over.
+//!
 //! The seed's BSDF: Lambert diffuse plus a GGX (Trowbridge-Reitz) microfacet
-//! specular lobe, all in the local shading frame (normal = +z).
+//! specular lobe.
 //!
 //!   f(wo, wi) = kd · baseColor/π + D(h)·F(wo·h)·G(wo, wi) / (4 (n·wo)(n·wi))
 //!   D: GGX with α = roughness²
@@ -250,6 +254,56 @@ impl SeedBsdf {
         (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
     }
 }
+
+/// A material evaluated at one shading point, for one outgoing direction:
+/// what the integrator needs of any BSDF model.
+pub trait Bsdf {
+    fn new(material: &Material, wo: Vec3) -> Self;
+    /// f(wo, wi) without the cosine; delta lobes contribute nothing here.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
+    /// Solid-angle pdf of `sample` producing wi, over its non-delta lobes.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// `u_lobe` picks the lobe, `u` drives it.
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample>;
+}
+
+/// Which BSDF model renders the scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BsdfModel {
+    /// The seed's formulas (Schlick-GGX k = (α+1)²/8, Fresnel-Schlick,
+    /// kd = (1−F)(1−metallic)), kept for comparison.
+    Seed,
+    /// What Cycles' Principled BSDF does (principled.rs).
+    #[default]
+    Principled,
+}
+
+macro_rules! impl_bsdf {
+    ($t:ty) => {
+        impl Bsdf for $t {
+            fn new(material: &Material, wo: Vec3) -> Self {
+                <$t>::new(material, wo)
+            }
+            fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+                <$t>::eval(self, wo, wi)
+            }
+            fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+                <$t>::pdf(self, wo, wi)
+            }
+            fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+                <$t>::sample(self, wo, u_lobe, u)
+            }
+        }
+    };
+}
+impl_bsdf!(SeedBsdf);
+impl_bsdf!(PrincipledBsdf);
+
+pub mod energy;
+pub mod microfacet;
+pub mod principled;
+pub use principled::PrincipledBsdf;
 
 #[cfg(test)]
 pub(crate) mod chi2;

@@ -479,6 +479,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         emission: emissive * strength,
         double_sided: m.double_sided,
         lamp: false,
+        multiscatter: true,
     }
 }
 

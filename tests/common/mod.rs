@@ -30,7 +30,7 @@ pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> (Vec<
 }
 
 pub fn settings(width: u32, height: u32, spp: u32, max_depth: u32, seed: u64) -> RenderSettings {
-    RenderSettings { width, height, spp, max_depth, seed, mis: false }
+    RenderSettings { width, height, spp, max_depth, seed, mis: false, bsdf: Default::default() }
 }
 
 /// Two triangles of the square |x − cx|, |z − cz| ≤ half in the plane
@@ -148,6 +148,7 @@ pub fn closed_box(albedo: f32, emission: f32) -> Scene {
         emission: Vec3::splat(emission),
         double_sided: false,
         lamp: false,
+        multiscatter: true,
     };
     let camera = Camera::from_world("inside".into(), &Mat4::from_translation(Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
     Scene::new(triangles, vec![material], camera)

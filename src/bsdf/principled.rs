@@ -1,0 +1,132 @@
+//! What Cycles 4.5's Principled BSDF does for the inputs glTF carries (base
+//! colour, metallic, roughness, specular level), in the local frame:
+//!
+//!   f = m · S_m · F_schlick(base, wo·h) · f_ggx
+//!     + (1 − m) · [ s · S_d · F_diel(wo·h) · f_ggx + (1 − E_layer(μo)) · base/π ]
+//!
+//! * f_ggx = D G2 / (4 cosθo cosθi): GGX with α = roughness², height-correlated
+//!   Smith masking, sampled by visible normals (microfacet.rs).
+//! * Metal (weight m): Fresnel-Schlick with F0 = base colour — Cycles' F82-tint
+//!   model with a white tint.
+//! * Dielectric (weight 1 − m): exact Fresnel at IOR 1.5 over a Lambert base
+//!   that gets what the specular layer does not reflect, 1 − E_layer(μo), so a
+//!   white dielectric reflects all the light at every angle.
+//! * S_m, S_d: multiple-scattering compensation ("Multiscatter GGX", Cycles'
+//!   default; `Material::multiscatter` off gives plain "GGX"), see energy.rs.
+//! * s: KHR_materials_specular's factor (Blender's Specular IOR Level × 2). It
+//!   scales the dielectric layer and E_layer linearly: exact for 0 and 1, an
+//!   approximation between.
+//!
+//! Like Cycles, the layering and the compensation depend on wo only, so the
+//! model is not reciprocal; the lobes themselves are.
+
+use super::energy::{ms_scale, tables, DIELECTRIC_ETA};
+use super::microfacet::{self, fresnel_dielectric, schlick_average};
+use super::{fresnel_schlick, lambert, luminance, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
+use crate::material::Material;
+use glam::{Vec2, Vec3};
+
+#[derive(Clone, Copy, Debug)]
+pub struct PrincipledBsdf {
+    base: Vec3,
+    metallic: f32,
+    specular: f32,
+    alpha: f32,
+    /// The glossy lobes are a perfect mirror (α² ≤ SMOOTH_ALPHA_SQ).
+    pub smooth: bool,
+    /// Multiple-scattering scales of the metal (per channel) and the
+    /// dielectric specular lobe.
+    s_metal: Vec3,
+    s_dielectric: f32,
+    /// Weight of the Lambert base: (1 − m)(1 − s·E_layer(μo)).
+    diffuse_weight: f32,
+    /// Probability of sampling the glossy lobes (else the diffuse one).
+    pub glossy_probability: f32,
+}
+
+impl PrincipledBsdf {
+    pub fn new(m: &Material, wo: Vec3) -> Self {
+        let roughness = m.roughness.clamp(0.0, 1.0);
+        let alpha = roughness * roughness;
+        let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
+        let metallic = m.metallic.clamp(0.0, 1.0);
+        let base = m.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+        let specular = m.specular.clamp(0.0, 1.0);
+        let mu = wo.z.clamp(0.0, 1.0);
+        if metallic == 0.0 && specular == 0.0 {
+            // Pure Lambert: no glossy lobe, nothing to look up.
+            return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0 };
+        }
+        let t = tables();
+        let (s_metal, s_dielectric) = if m.multiscatter && !smooth {
+            let (e, e_avg) = (t.e(mu, roughness), t.e_avg(roughness));
+            (ms_scale(e, e_avg, schlick_average(base)), ms_scale(e, e_avg, Vec3::splat(t.dielectric_f_avg)).x)
+        } else {
+            (Vec3::ONE, 1.0)
+        };
+        let layer = if smooth {
+            fresnel_dielectric(mu, DIELECTRIC_ETA)
+        } else if m.multiscatter {
+            t.e_layer(mu, roughness)
+        } else {
+            t.e_layer(mu, roughness) / ms_scale(t.e(mu, roughness), t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x
+        };
+        let diffuse_weight = (1.0 - metallic) * (1.0 - specular * layer).max(0.0);
+        // Lobe choice by expected reflectance at this wo: the metal's ≈ its
+        // average Fresnel, the dielectric layer's E_layer. As in the seed
+        // model, a narrow dielectric lobe gets at least a floor share.
+        let w_glossy = metallic * luminance(schlick_average(base)) + (1.0 - metallic) * specular * layer;
+        let w_diffuse = diffuse_weight * luminance(base);
+        let mut glossy_probability = if w_glossy + w_diffuse > 0.0 { w_glossy / (w_glossy + w_diffuse) } else { 1.0 };
+        if w_glossy > 0.0 && w_diffuse > 0.0 {
+            glossy_probability = glossy_probability.max(SPEC_MIN_SHARE * (1.0 - roughness) * (1.0 - roughness));
+        }
+        PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal, s_dielectric, diffuse_weight, glossy_probability }
+    }
+
+    /// Fresnel of the glossy lobes, summed with their weights and scales.
+    fn glossy_fresnel(&self, cos_h: f32) -> Vec3 {
+        let metal = self.metallic * self.s_metal * fresnel_schlick(self.base, cos_h);
+        let dielectric = (1.0 - self.metallic) * self.specular * self.s_dielectric * fresnel_dielectric(cos_h, DIELECTRIC_ETA);
+        metal + Vec3::splat(dielectric)
+    }
+
+    fn has_glossy(&self) -> bool {
+        self.glossy_probability > 0.0
+    }
+
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let diffuse = lambert::eval(self.base, wo, wi) * self.diffuse_weight;
+        if self.smooth || !self.has_glossy() {
+            return diffuse;
+        }
+        let h = (wo + wi).normalize_or_zero();
+        diffuse + self.glossy_fresnel(wo.dot(h)) * microfacet::eval(wo, wi, self.alpha)
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let p = self.glossy_probability;
+        let glossy = if self.smooth || p == 0.0 { 0.0 } else { p * microfacet::pdf(wo, wi, self.alpha) };
+        glossy + (1.0 - p) * lambert::pdf(wo, wi)
+    }
+
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let p = self.glossy_probability;
+        if self.smooth && u_lobe < p {
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            let f = self.glossy_fresnel(wo.z);
+            return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
+        }
+        let wi = if u_lobe < p { microfacet::sample(wo, self.alpha, u)?.0 } else { lambert::sample(u) };
+        let pdf = self.pdf(wo, wi);
+        let f = self.eval(wo, wi);
+        let weight = f * (wi.z / pdf);
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
+    }
+}
