@@ -115,6 +115,7 @@ def render_request(depsgraph, job, width, height):
         "samples": settings.samples,
         "max_depth": settings.max_bounces + 1,
         "seed": settings.seed,
+        "bsdf": settings.bsdf.lower(),
         "background": background,
         "area_lights": area_lights(depsgraph),
     }

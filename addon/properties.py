@@ -12,6 +12,15 @@ class GlintRenderSettings(bpy.types.PropertyGroup):
         name="Time Limit", description="Stop adding samples after this long (0: no limit)", default=0.0, min=0.0, subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE"
     )
     seed: bpy.props.IntProperty(name="Seed", description="Random seed: the same seed gives the same image", default=0, min=0)
+    bsdf: bpy.props.EnumProperty(
+        name="BSDF",
+        description="How materials reflect light",
+        items=[
+            ("PRINCIPLED", "Principled", "What Cycles' Principled BSDF does (multiscatter GGX, energy-conserving layering)"),
+            ("SEED", "Seed", "Glint's first model (Schlick-GGX, kd = (1 − F)(1 − metallic)), for comparison"),
+        ],
+        default="PRINCIPLED",
+    )
     threads: bpy.props.IntProperty(
         name="Threads", description="Render threads (0: all cores but one, so Blender stays responsive)", default=0, min=0, max=1024
     )
@@ -38,6 +47,7 @@ class RENDER_PT_glint_sampling(bpy.types.Panel):
         col.prop(settings, "time_limit")
         col.prop(settings, "max_bounces")
         col.prop(settings, "seed")
+        col.prop(settings, "bsdf")
         col.prop(settings, "threads")
 
 
