@@ -327,7 +327,7 @@ fn albedo_of<B: Bsdf>(bsdf: &B, wo: Vec3, n: usize, seed: u64) -> Vec3 {
 }
 
 /// The white furnace: a white Principled surface, metal or dielectric,
-/// returns all the light at every angle and roughness — the diffuse base
+/// returns all the light at every angle (to 89°) and roughness — the diffuse base
 /// gets exactly what the specular layer leaves, and the multiple-scattering
 /// compensation returns what single scattering loses. (The seed's model
 /// gains up to 8.5%; see seed_dielectric_energy_gain_is_the_known_one.)
@@ -336,13 +336,14 @@ fn white_principled_surfaces_pass_the_furnace_test() {
     let mut worst = 0.0f32;
     for metallic in [0.0f32, 1.0] {
         for roughness in [0.0f32, 0.05, 0.3, 0.7, 1.0] {
-            for theta in [0.0f32, 45.0, 75.0, 85.0] {
+            for theta in [0.0f32, 45.0, 75.0, 85.0, 89.0] {
                 let wo = dir_at(theta);
                 let bsdf = PrincipledBsdf::new(&material(Vec3::ONE, metallic, roughness), wo);
                 let a = albedo_of(&bsdf, wo, 100_000, 21).max_element();
                 worst = worst.max((a - 1.0).abs());
-                // 100k samples: noise < 0.3%; table interpolation < 0.5%.
-                assert!((a - 1.0).abs() < 0.01, "metallic {metallic} roughness {roughness} θo {theta}: albedo {a}");
+                // 100k samples: noise < 0.3%; table interpolation < 0.3%, up
+                // to 0.9% at 89° where low-roughness albedos bend sharply.
+                assert!((a - 1.0).abs() < 0.015, "metallic {metallic} roughness {roughness} θo {theta}: albedo {a}");
             }
         }
     }
