@@ -107,8 +107,9 @@ fn samples_are_finite_and_consistent_everywhere() {
     }
 }
 
+
 /// E[f cos / pdf] over the sampler: the directional albedo.
-fn albedo(bsdf: &SeedBsdf, wo: Vec3, n: usize, seed: u64) -> Vec3 {
+fn albedo_of<B: Bsdf>(bsdf: &B, wo: Vec3, n: usize, seed: u64) -> Vec3 {
     let mut rng = Rng::new(seed, 5);
     let mut sum = Vec3::ZERO;
     for _ in 0..n {
@@ -161,7 +162,7 @@ fn ggx_lobe_never_gains_energy_and_estimator_matches_quadrature() {
         for theta in [0.0f32, 45.0, 75.0, 89.0] {
             let wo = dir_at(theta);
             let bsdf = SeedBsdf::new(&material(Vec3::ONE, 1.0, roughness), wo);
-            let a = albedo(&bsdf, wo, 200_000, 11).max_element();
+            let a = albedo_of(&bsdf, wo, 200_000, 11).max_element();
             // 200k samples of a weight in [0, 1]: 0.01 is beyond 5σ.
             assert!(a <= 1.0 + 0.01, "roughness {roughness} θo {theta}: albedo {a}");
             if roughness >= 0.3 && theta <= 75.0 {
@@ -185,7 +186,7 @@ fn seed_dielectric_energy_gain_is_the_known_one() {
         for theta in [0.0f32, 45.0, 75.0, 89.0] {
             let wo = dir_at(theta);
             let bsdf = SeedBsdf::new(&material(Vec3::ONE, 0.0, roughness), wo);
-            let a = albedo(&bsdf, wo, 200_000, 11).max_element();
+            let a = albedo_of(&bsdf, wo, 200_000, 11).max_element();
             assert!(a > 0.8, "roughness {roughness} θo {theta}: {a}");
             worst = worst.max(a);
         }
@@ -272,7 +273,7 @@ fn white_dielectric_mirror_returns_exactly_one() {
             let wo = dir_at(theta);
             let bsdf = SeedBsdf::new(&material(Vec3::ONE, 0.0, roughness), wo);
             assert!(bsdf.smooth);
-            let a = albedo(&bsdf, wo, 200_000, 13).max_element();
+            let a = albedo_of(&bsdf, wo, 200_000, 13).max_element();
             // Mirror weight F/p and diffuse weight (1−F)/(1−p): ±0.01 is > 5σ.
             assert!((a - 1.0).abs() < 0.01, "roughness {roughness} θo {theta}: albedo {a}");
         }
@@ -314,17 +315,6 @@ fn principled_sampling_matches_pdf() {
     }
 }
 
-fn albedo_of<B: Bsdf>(bsdf: &B, wo: Vec3, n: usize, seed: u64) -> Vec3 {
-    let mut rng = Rng::new(seed, 5);
-    let mut sum = Vec3::ZERO;
-    for _ in 0..n {
-        let ul = rng.next_f32();
-        if let Some(s) = bsdf.sample(wo, ul, rng.next_2d()) {
-            sum += s.weight;
-        }
-    }
-    sum / n as f32
-}
 
 /// The white furnace: a white Principled surface, metal or dielectric,
 /// returns all the light at every angle (to 89°) and roughness — the diffuse base
