@@ -5,9 +5,12 @@ Through glTF (Principled BSDF → pbrMetallicRoughness, the exporter's job):
 base colour, metallic, roughness, emission colour × strength
 (KHR_materials_emissive_strength), Specular IOR Level 0 as
 KHR_materials_specular 0, cameras and mesh geometry with modifiers applied.
-Not carried, or not yet rendered by Glint: textures, transmission, and other
-Principled inputs (coat, sheen, subsurface, anisotropy, thin film), point,
-spot and sun lights, and World node setups other than a plain Background.
+Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
+units: W/(4π) per sr, sun W/m²) and render punctual: a light's radius, soft
+falloff and a sun's angle are not carried. Not carried, or not yet rendered
+by Glint: textures, transmission, other Principled inputs (coat, sheen,
+subsurface, anisotropy, thin film), and World node setups other than a plain
+Background.
 
 Through the request: resolution × percentage, the scene camera, samples,
 bounces, time limit, seed, the World colour, and every area light (glTF has
@@ -93,7 +96,8 @@ def area_lights(depsgraph):
                 "size": [light.size, size_y],
                 "matrix": [m[r][c] for c in range(4) for r in range(4)],  # column-major
                 "color": list(light.color[:3]),
-                "power": light.energy,
+                # Unnormalised lights give power per unit area, as the exporter reads them.
+                "power": light.energy if getattr(light, "normalize", True) else light.energy * light.area(matrix_world=instance.matrix_world),
             }
         )
     return records
@@ -107,6 +111,19 @@ def render_request(depsgraph, job, width, height):
     background, problem = world_background(scene)
     if problem:
         warnings.append(problem)
+    soft = sorted(
+        {
+            i.object.name
+            for i in depsgraph.object_instances
+            if i.object.type == "LIGHT"
+            and (
+                (i.object.data.type in {"POINT", "SPOT"} and i.object.data.shadow_soft_size > 0)
+                or (i.object.data.type == "SUN" and i.object.data.angle > 0)
+            )
+        }
+    )
+    if soft:
+        warnings.append(f"{', '.join(soft)}: Glint renders point, spot and sun lights as punctual (radius and angle 0), so their shadows are hard")
     request = {
         "job": job,
         "scene": "scene.glb",

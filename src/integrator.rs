@@ -24,7 +24,8 @@
 
 use crate::accel::{Accel, Hit};
 use crate::bsdf::Bsdf;
-use crate::lights::Lights;
+use crate::lights::{LightChoice, LightSample, Lights};
+use crate::punctual::PunctualLight;
 use crate::material::Material;
 use crate::render::RenderSettings;
 use crate::rng::Rng;
@@ -164,7 +165,34 @@ fn light_pdf_solid_angle(pdf_area: f32, dist2: f32, cos_light: f32) -> f32 {
 /// MIS-weighted against BSDF sampling when `mis` is set.
 fn direct_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
-    let Some(ls) = ctx.lights.sample(ctx.scene, u_pick, u) else { return Vec3::ZERO };
+    match ctx.lights.sample(ctx.scene, u_pick, u) {
+        None => Vec3::ZERO,
+        Some(LightChoice::Area(ls)) => area_light(ctx, si, bsdf, wo, mis, &ls, rays),
+        Some(LightChoice::Punctual { index, probability }) => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, rays),
+    }
+}
+
+/// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick: a
+/// delta light, so no MIS weight (BSDF sampling never reaches it).
+fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, rays: &mut RayCounts) -> Vec3 {
+    let Some(inc) = light.incident(si.p) else { return Vec3::ZERO };
+    if inc.wi.dot(si.ng) <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let wi_local = si.frame.to_local(inc.wi);
+    let f = bsdf.eval(wo, wi_local);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    rays.shadow += 1;
+    if ctx.accel.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance) {
+        return Vec3::ZERO;
+    }
+    f * inc.irradiance * (wi_local.z / probability)
+}
+
+/// One point on an emitting triangle and its shadow ray.
+fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, ls: &LightSample, rays: &mut RayCounts) -> Vec3 {
     let to_light = ls.point - si.p;
     let dist2 = to_light.length_squared();
     if !(dist2 > 0.0) {

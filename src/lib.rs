@@ -10,6 +10,7 @@ pub mod loader;
 pub mod material;
 pub mod output;
 pub mod progressive;
+pub mod punctual;
 pub mod render;
 pub mod request;
 pub mod rng;

@@ -1,8 +1,9 @@
-//! The light list: emissive triangles, picked with probability proportional
-//! to their power (area × luminance of the emitted radiance) and sampled
-//! uniformly on their surface. A point x' on an emitter of radiance Le then
-//! has area density pdf_A = lum(Le) / Σ_j lum(Le_j) A_j: the same for every
-//! point of every emitter of that radiance, so it depends on the material.
+//! The light list: emissive triangles and punctual lights, picked with
+//! probability proportional to their power (luminance-weighted watts: π·A·Le
+//! for a triangle, see punctual.rs for the others). A triangle is then
+//! sampled uniformly, so a point x' on an emitter of radiance Le has area
+//! density pdf_A = π·lum(Le) / P_total: the same for every point of every
+//! emitter of that radiance, so it depends on the material.
 
 use crate::bsdf::luminance;
 use crate::sampling::{uniform_triangle, Distribution1D};
@@ -10,11 +11,19 @@ use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 
 pub struct Lights {
-    /// Scene triangle index of each emitter.
+    /// Scene triangle index of each emitter; the distribution's entries
+    /// are these, then the scene's punctual lights.
     pub triangles: Vec<u32>,
     distribution: Distribution1D,
-    /// Σ lum(Le) · A over the emitters, in W·sr⁻¹ (luminance-weighted).
+    /// Σ of the lights' powers (luminance-weighted watts).
     total_power: f64,
+}
+
+/// What light sampling picked.
+pub enum LightChoice {
+    Area(LightSample),
+    /// Scene punctual light `index`, picked with this probability.
+    Punctual { index: usize, probability: f32 },
 }
 
 /// A point on an emitter.
@@ -31,13 +40,17 @@ pub struct LightSample {
 
 impl Lights {
     pub fn new(scene: &Scene) -> Self {
-        let (triangles, powers): (Vec<u32>, Vec<f64>) = scene
+        let (triangles, mut powers): (Vec<u32>, Vec<f64>) = scene
             .triangles
             .iter()
             .enumerate()
-            .map(|(i, t)| (i as u32, t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64))
+            .map(|(i, t)| (i as u32, std::f64::consts::PI * t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64))
             .filter(|&(_, power)| power > 0.0)
             .unzip();
+        if !scene.punctual.is_empty() {
+            let radius = scene_radius(scene);
+            powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
+        }
         let distribution = Distribution1D::new(powers);
         Lights { total_power: distribution.total(), triangles, distribution }
     }
@@ -48,21 +61,33 @@ impl Lights {
 
     /// Area density of every point on an emitter of radiance `le`.
     pub fn pdf_area(&self, le: Vec3) -> f32 {
-        if self.total_power > 0.0 { (luminance(le) as f64 / self.total_power) as f32 } else { 0.0 }
+        if self.total_power > 0.0 { (std::f64::consts::PI * luminance(le) as f64 / self.total_power) as f32 } else { 0.0 }
     }
 
-    pub fn sample(&self, scene: &Scene, u_pick: f32, u: Vec2) -> Option<LightSample> {
+    pub fn sample(&self, scene: &Scene, u_pick: f32, u: Vec2) -> Option<LightChoice> {
         if self.is_empty() {
             return None;
         }
-        let triangle = self.triangles[self.distribution.sample(u_pick)];
+        let pick = self.distribution.sample(u_pick);
+        if pick >= self.triangles.len() {
+            let probability = self.distribution.probability(pick) as f32;
+            return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });
+        }
+        let triangle = self.triangles[pick];
         let tri = &scene.triangles[triangle as usize];
         let b = uniform_triangle(u);
         let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
         let normal = tri.cross().normalize();
         let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission);
-        Some(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area })
+        Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area }))
     }
+}
+
+/// Radius of a sphere about the bounds' centre that holds every surface,
+/// where the sun's power is counted (at least 1 m).
+fn scene_radius(scene: &Scene) -> f32 {
+    let (lo, hi) = scene.triangles.iter().flat_map(|t| t.p).fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(p), hi.max(p)));
+    if lo.x > hi.x { 1.0 } else { (0.5 * (hi - lo).length()).max(1.0) }
 }
 
 #[cfg(test)]
@@ -86,10 +111,11 @@ mod tests {
         assert_eq!(lights.triangles, vec![0, 1]);
         // ∫ pdf_A dA over the emitters = Σ pdf_A(Le_i) A_i = 1.
         let total: f32 = [0, 1].iter().map(|&i| lights.pdf_area(scene.materials[i].emission) * 0.5).sum();
+        // (pdf_A includes the π of π·A·Le; the density over area sums to 1.)
         assert!((total - 1.0).abs() < 1e-6);
         let mut counts = [0u32; 2];
         for k in 0..4000 {
-            let s = lights.sample(&scene, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3)).unwrap();
+            let Some(LightChoice::Area(s)) = lights.sample(&scene, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3)) else { panic!("no light") };
             counts[s.triangle as usize] += 1;
         }
         assert_eq!(counts, [1000, 3000]);

@@ -3,6 +3,7 @@
 
 use crate::camera::Camera;
 use crate::material::Material;
+use crate::punctual::PunctualLight;
 use glam::Vec3;
 
 #[derive(Clone, Debug)]
@@ -33,6 +34,8 @@ pub struct Scene {
     /// Radiance (W·sr⁻¹·m⁻²) arriving from every direction no surface
     /// covers: a plain-colour World. Black by default, as in glTF.
     pub background: Vec3,
+    /// Point, spot and sun lights.
+    pub punctual: Vec<PunctualLight>,
     /// One line each; the CLI prints them, the daemon logs them.
     pub warnings: Vec<String>,
 }
@@ -40,7 +43,7 @@ pub struct Scene {
 impl Scene {
     /// A black background and no warnings.
     pub fn new(triangles: Vec<Triangle>, materials: Vec<Material>, camera: Camera) -> Self {
-        Scene { triangles, materials, camera, background: Vec3::ZERO, warnings: Vec::new() }
+        Scene { triangles, materials, camera, background: Vec3::ZERO, punctual: Vec::new(), warnings: Vec::new() }
     }
 
     /// Whether a triangle is lamp geometry rather than a surface.

@@ -191,3 +191,32 @@ fn an_area_light_lights_the_floor_as_its_power_says_and_is_invisible_from_behind
     let (img, _) = render(&scene, &settings(4, 4, 1, 1, 2), 1);
     assert!(img.iter().all(|p| (p.x - l).abs() < 1e-4 * l), "{:?} vs {l}", img[0]);
 }
+
+/// Punctual lights on a Lambertian floor of albedo ρ: below a point light of
+/// intensity I at height h the floor's radiance is ρ/π · I/h²; under a sun
+/// of irradiance E at 60° from the zenith, ρ/π · E cos 60°. Each alone and
+/// both together (light picking by power must not bias the sum).
+#[test]
+fn point_and_sun_light_a_floor_as_the_inverse_square_and_cosine_laws_say() {
+    use glint::punctual::{PunctualKind, PunctualLight};
+    let (albedo, h, intensity, sun_e) = (0.5f32, 2.0f32, 40.0f32, 3.0f32);
+    let mut scene = Scene::new(
+        common::horizontal_quad(Vec3::ZERO, 1e3, 0.0, true, 0),
+        vec![common::diffuse("floor", albedo)],
+        common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.01),
+    );
+    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(intensity) };
+    let tilt = 60f32.to_radians();
+    let sun = PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: Vec3::new(tilt.sin(), -tilt.cos(), 0.0), intensity: Vec3::splat(sun_e) };
+    let from_point = albedo / std::f32::consts::PI * intensity / (h * h);
+    let from_sun = albedo / std::f32::consts::PI * sun_e * tilt.cos();
+    for (lights, expected) in [(vec![point.clone()], from_point), (vec![sun.clone()], from_sun), (vec![point, sun], from_point + from_sun)] {
+        scene.punctual = lights;
+        let (img, stats) = render(&scene, &settings(8, 8, 256, 1, 3), 2);
+        common::assert_clean(&img, &stats, "punctual lights");
+        let values: Vec<f32> = img.iter().map(|p| p.x).collect();
+        let (mean, se) = mean_and_standard_error(&values);
+        // The camera sees a 1 cm spot: the light varies by < 1e-5 over it.
+        assert!((mean - expected as f64).abs() < 5.0 * se + 1e-4 * expected as f64, "{mean} vs {expected} (se {se})");
+    }
+}

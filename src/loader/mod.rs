@@ -10,6 +10,7 @@ mod glb;
 
 use crate::camera::Camera;
 use crate::material::Material;
+use crate::punctual::{PunctualKind, PunctualLight};
 use crate::scene::{Scene, Triangle};
 use accessor::{read_floats, read_indices, Buffers};
 use glam::{Mat3, Mat4, Quat, Vec3};
@@ -144,6 +145,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOptions) -> R
     let camera = builder.pick_camera(options.camera.as_deref())?;
     let warnings = builder.warnings();
     let mut scene = Scene::new(builder.triangles, builder.materials, camera);
+    scene.punctual = builder.lights;
     scene.warnings = warnings;
     Ok(scene)
 }
@@ -156,7 +158,7 @@ struct Stats {
     bad_normals: usize,
     dangling_indices: usize,
     textured_materials: usize,
-    punctual_lights: usize,
+    bad_lights: usize,
 }
 
 struct CameraCandidate {
@@ -173,6 +175,7 @@ struct Builder<'a> {
     /// glTF material index (None: the default material) → ours.
     material_ids: HashMap<Option<usize>, u32>,
     cameras: Vec<CameraCandidate>,
+    lights: Vec<PunctualLight>,
     stats: Stats,
 }
 
@@ -197,6 +200,7 @@ impl<'a> Builder<'a> {
             materials: Vec::new(),
             material_ids: HashMap::new(),
             cameras: Vec::new(),
+            lights: Vec::new(),
             stats: Stats::default(),
         }
     }
@@ -276,8 +280,8 @@ impl<'a> Builder<'a> {
             if let Some(mesh) = node.mesh {
                 self.add_mesh(mesh.value(), &world)?;
             }
-            if node.extensions.as_ref().is_some_and(|e| e.khr_lights_punctual.is_some()) {
-                self.stats.punctual_lights += 1;
+            if let Some(light) = node.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
+                self.add_light(light.light.value(), node.name.as_deref(), &world);
             }
             if let Some(camera) = node.camera {
                 self.cameras.push(CameraCandidate { node_name: node.name.clone(), camera: camera.value(), world });
@@ -287,6 +291,37 @@ impl<'a> Builder<'a> {
             }
         }
         Ok(())
+    }
+
+    /// A KHR_lights_punctual light at a node: it sits at the node's origin
+    /// and shines down the node's −Z.
+    fn add_light(&mut self, index: usize, node_name: Option<&str>, world: &Mat4) {
+        use gltf::json::extensions::scene::khr_lights_punctual::Type;
+        let light = self.root.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()).and_then(|l| l.lights.get(index));
+        let Some(light) = light else {
+            self.stats.bad_lights += 1;
+            return;
+        };
+        let kind = match (&light.type_, &light.spot) {
+            (Checked::Valid(Type::Point), _) => PunctualKind::Point,
+            (Checked::Valid(Type::Directional), _) => PunctualKind::Sun,
+            (Checked::Valid(Type::Spot), Some(spot)) => PunctualLight::spot(spot.outer_cone_angle, spot.inner_cone_angle),
+            // glTF's defaults: inner 0, outer π/4.
+            (Checked::Valid(Type::Spot), None) => PunctualLight::spot(std::f32::consts::FRAC_PI_4, 0.0),
+            _ => {
+                self.stats.bad_lights += 1;
+                return;
+            }
+        };
+        let intensity = Vec3::from(light.color.map(|c| finite_or(c, 1.0).max(0.0))) * finite_or(light.intensity, 1.0).max(0.0);
+        let position = world.w_axis.truncate();
+        let direction = (-world.z_axis.truncate()).normalize_or_zero();
+        if !position.is_finite() || direction == Vec3::ZERO || !intensity.is_finite() {
+            self.stats.bad_lights += 1;
+            return;
+        }
+        let name = light.name.clone().or(node_name.map(String::from)).unwrap_or_else(|| format!("light {index}"));
+        self.lights.push(PunctualLight { name, kind, position, direction, intensity });
     }
 
     fn material_id(&mut self, index: Option<usize>) -> Result<u32, String> {
@@ -433,8 +468,8 @@ impl<'a> Builder<'a> {
         if s.dangling_indices > 0 {
             w.push(format!("ignored {} trailing index(es) that do not form a whole triangle", s.dangling_indices));
         }
-        if s.punctual_lights > 0 {
-            w.push(format!("{} point, spot or sun light(s) (KHR_lights_punctual) are not rendered yet; emissive surfaces and area lights are", s.punctual_lights));
+        if s.bad_lights > 0 {
+            w.push(format!("left out {} punctual light(s) that do not exist, have an unknown type, or a non-finite transform or intensity", s.bad_lights));
         }
         if s.textured_materials > 0 {
             w.push(format!("{} material(s) use textures, which are not supported yet: their factors are used", s.textured_materials));

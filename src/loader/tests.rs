@@ -184,14 +184,32 @@ fn non_triangle_modes_are_skipped_with_a_count() {
 }
 
 #[test]
-fn punctual_lights_are_named_in_a_warning() {
+fn punctual_lights_load_with_their_transform_and_bad_ones_are_counted() {
+    use crate::punctual::PunctualKind;
     let mut d = base_doc();
     d["extensionsUsed"] = json!(["KHR_lights_punctual"]);
-    d["extensions"] = json!({"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 10.0}]}});
-    d["nodes"].as_array_mut().unwrap().push(json!({"name": "Lamp", "extensions": {"KHR_lights_punctual": {"light": 0}}}));
-    d["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    d["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "intensity": 10.0, "color": [1.0, 0.5, 0.25]},
+        {"type": "spot", "intensity": 2.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.4}},
+        {"type": "directional", "intensity": 3.0},
+        {"type": "laser", "intensity": 3.0}
+    ]}});
+    let nodes = d["nodes"].as_array_mut().unwrap();
+    nodes.push(json!({"name": "Bulb", "translation": [1.0, 2.0, 3.0], "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    // Rotated −90° about X: −Z turns to −Y, straight down.
+    nodes.push(json!({"name": "Spot", "rotation": [-0.70710677, 0.0, 0.0, 0.70710677], "extensions": {"KHR_lights_punctual": {"light": 1}}}));
+    nodes.push(json!({"name": "Sun", "extensions": {"KHR_lights_punctual": {"light": 2}}}));
+    nodes.push(json!({"name": "Bad", "extensions": {"KHR_lights_punctual": {"light": 3}}}));
+    nodes.push(json!({"name": "Missing", "extensions": {"KHR_lights_punctual": {"light": 9}}}));
+    d["scenes"][0]["nodes"] = json!([0, 1, 2, 3, 4, 5, 6]);
     let s = load(&d).unwrap();
-    assert!(s.warnings.iter().any(|w| w.contains("1 point, spot or sun light(s)")), "{:?}", s.warnings);
+    assert_eq!(s.punctual.len(), 3);
+    let (bulb, spot, sun) = (&s.punctual[0], &s.punctual[1], &s.punctual[2]);
+    assert_eq!((bulb.kind, bulb.position, bulb.intensity), (PunctualKind::Point, Vec3::new(1.0, 2.0, 3.0), Vec3::new(10.0, 5.0, 2.5)));
+    assert!((spot.direction - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-5, "{}", spot.direction);
+    assert!(matches!(spot.kind, PunctualKind::Spot { cos_outer, smooth } if (cos_outer - 0.4f32.cos()).abs() < 1e-6 && smooth > 0.0));
+    assert_eq!((sun.kind, sun.direction), (PunctualKind::Sun, Vec3::new(0.0, 0.0, -1.0)));
+    assert!(s.warnings.iter().any(|w| w.contains("left out 2 punctual light(s)")), "{:?}", s.warnings);
 }
 
 #[test]

@@ -82,11 +82,14 @@ def test_f12_gives_what_glint_render_gives_for_the_exported_scene(empty_scene, e
 
 def test_the_request_carries_area_lights_and_the_world(empty_scene):
     build_scene(empty_scene)
-    point = bpy.data.objects.new("Bulb", bpy.data.lights.new("Bulb", "POINT"))
-    empty_scene.collection.objects.link(point)
+    # A textured material: what Glint leaves out reaches the user as a warning.
+    red = bpy.data.materials["Red"]
+    texture = red.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = bpy.data.images.new("Checker", 8, 8)
+    texture.image.generated_type = "UV_GRID"
+    red.node_tree.links.new(texture.outputs["Color"], red.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
     bpy.ops.render.render()
-    # What Glint leaves out reaches the user as a warning.
-    assert any("point, spot or sun" in w for w in daemon.current().status()["warnings"])
+    assert any("use textures" in w for w in daemon.current().status()["warnings"]), daemon.current().status()["warnings"]
     request = json.loads(open(daemon.current().path("request.json")).read())
     assert request["background"] == pytest.approx([0.1, 0.15, 0.25])
     (panel,) = request["area_lights"]
