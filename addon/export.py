@@ -134,6 +134,10 @@ def render_request(depsgraph, job, width, height):
         "seed": settings.seed,
         "bsdf": settings.bsdf.lower(),
         "background": background,
+        # Cycles' Emission emits from both faces; the exporter's doubleSided
+        # is Blender's backface culling, which Cycles ignores. (A Cornell box
+        # whose light faced down came out 9% dark without this.)
+        "two_sided_emission": True,
         "area_lights": area_lights(depsgraph),
     }
     if settings.time_limit > 0:

@@ -30,6 +30,7 @@ pub struct JobOptions {
     pub scene_index: Option<usize>,
     pub background: Option<[f32; 3]>,
     pub bsdf: Option<BsdfModel>,
+    pub two_sided_emission: Option<bool>,
 }
 
 impl JobOptions {
@@ -48,6 +49,7 @@ impl JobOptions {
             scene_index: self.scene_index.or(f.scene_index),
             background: self.background.or(f.background),
             bsdf: self.bsdf.or(f.bsdf),
+            two_sided_emission: self.two_sided_emission.or(f.two_sided_emission),
         }
     }
 }
@@ -66,6 +68,7 @@ impl From<&RenderRequest> for JobOptions {
             scene_index: None,
             background: r.background,
             bsdf: r.bsdf,
+            two_sided_emission: r.two_sided_emission,
         }
     }
 }
@@ -92,6 +95,11 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, area_lights: &[A
             return Err(format!("{name}: background must be finite and ≥ 0"));
         }
         scene.background = Vec3::from(b);
+    }
+    if options.two_sided_emission == Some(true) {
+        for m in scene.materials.iter_mut().filter(|m| m.is_emissive()) {
+            m.double_sided = true;
+        }
     }
     crate::lamps::add_area_lights(&mut scene, area_lights).map_err(|e| format!("{name}: {e}"))?;
     let (width, height) = resolution(options.width, options.height, scene.camera.aspect_ratio);

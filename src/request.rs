@@ -48,6 +48,9 @@ pub struct RenderRequest {
     pub output: Option<String>,
     /// World radiance in W·sr⁻¹·m⁻² (Blender: Background colour × strength).
     pub background: Option<[f32; 3]>,
+    /// Every emissive surface emits from both faces, as Blender's Emission
+    /// does in Cycles (glTF's doubleSided is Blender's backface culling).
+    pub two_sided_emission: Option<bool>,
     pub area_lights: Vec<AreaLight>,
 }
 

@@ -1,0 +1,237 @@
+"""Error against run time, Glint and Cycles side by side, on one machine.
+
+    GLINT_EXECUTABLE=target/release/glint  VENV/bin/python tests/blender/convergence.py [--out convergence] [--size 64]
+
+For each comparison scene (the Cornell box, imported from scenes/ with
+Blender's glTF importer, and a rough gold sphere under an area light), it:
+
+1. renders a converged reference with Cycles (--reference-spp samples);
+2. renders with Cycles at 1, 2, 4, … samples (fair settings: CPU, no
+   denoising, adaptive sampling or clamping, box filter, equal bounces) and
+   with Glint at 1, 2, 4, … samples of the same exported scene (`glint
+   render`, its own rendering time, without load and BVH build);
+3. measures the error of each image against the reference: relative MSE
+   (mean of (x − ref)² / (ref² + 0.01), ε = 0.01) and RMSE;
+4. writes OUT/SCENE.csv and OUT/SCENE.png (log–log error against seconds,
+   one curve per renderer) and prints the equal-error speed-up: the time
+   Cycles needs for N samples divided by the time Glint needs to reach the
+   same error (interpolated on its curve).
+
+This is a benchmark that prints figures, not a test: the README holds the
+latest table and plot.
+"""
+
+import argparse
+import csv
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+from helpers import give_principled, read_exr  # noqa: E402
+
+BOUNCES = 8
+
+
+def cornell(scene):
+    bpy.ops.import_scene.gltf(filepath=str(REPO / "scenes" / "cornell-box.gltf"))
+    cameras = [o for o in scene.objects if o.type == "CAMERA"]
+    scene.camera = cameras[0]
+    scene.world = None
+
+
+def gold_sphere(scene):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0)
+    bpy.ops.object.shade_smooth()
+    give_principled(bpy.context.object, "Gold", Base_Color=(1.0, 0.71, 0.29, 1), Metallic=1.0, Roughness=0.3)
+    bpy.ops.mesh.primitive_plane_add(size=20, location=(0, 0, -1))
+    give_principled(bpy.context.object, "Floor", Base_Color=(0.5, 0.5, 0.5, 1), Roughness=0.8)
+    light = bpy.data.lights.new("Key", "AREA")
+    light.size, light.energy = 1.0, 300.0
+    lamp = bpy.data.objects.new("Key", light)
+    lamp.location = (2.0, -2.0, 3.0)
+    lamp.rotation_euler = (math.radians(40), 0, math.radians(45))
+    scene.collection.objects.link(lamp)
+    world = bpy.data.worlds.new("World")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.2, 0.2, 1)
+    scene.world = world
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0, -5, 1.0)
+    camera.rotation_euler = (math.radians(85), 0, 0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+
+
+SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere}
+
+
+def setup(build, size):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    build(scene)
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.view_settings.view_transform = "Standard"
+    c = scene.cycles
+    scene.render.engine = "CYCLES"
+    c.device = "CPU"
+    c.use_denoising = c.use_adaptive_sampling = False
+    c.blur_glossy = 0.0
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.light_sampling_threshold = 0.0
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = BOUNCES
+    c.pixel_filter_type, c.filter_width = "BOX", 1.0
+    scene.render.threads_mode = "AUTO"
+    scene.glint.max_bounces = BOUNCES
+    return scene
+
+
+def cycles(scene, spp, path, seed=0):
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.seed = spp, seed
+    start = time.perf_counter()
+    bpy.ops.render.render()
+    seconds = time.perf_counter() - start
+    bpy.data.images["Render Result"].save_render(str(path))
+    return read_exr(path)[..., :3].astype(np.float64), seconds
+
+
+def export_for_glint(scene, folder):
+    """The scene and request exactly as the add-on hands them to Glint."""
+    import glint.export as export
+
+    scene.render.engine = "GLINT"
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    export.export_scene(str(folder / "scene.glb"), scene.frame_current, scene.frame_subframe)
+    size = scene.render.resolution_x
+    request, _ = export.render_request(depsgraph, "convergence", size, size)
+    (folder / "request.json").write_bytes(export.json_bytes(request))
+
+
+def glint_render(executable, folder, spp, path):
+    out = subprocess.run(
+        [executable, "render", str(folder / "scene.glb"), "--request", str(folder / "request.json"), "--spp", str(spp), "-o", str(path)],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    # The closing line: "WxH, N spp, S s, M Mrays/s -> out.exr": rendering only.
+    seconds = max(float(out.stderr.strip().splitlines()[-1].split(",")[2].split()[0]), 1e-3)
+    return read_exr(path)[..., :3].astype(np.float64), seconds
+
+
+def errors(img, ref):
+    relmse = float(np.mean((img - ref) ** 2 / (ref**2 + 0.01)))
+    rmse = float(np.sqrt(np.mean((img - ref) ** 2)))
+    return relmse, rmse
+
+
+def time_to_reach(curve, target):
+    """Seconds at which a (seconds, error) curve reaches `target`, by
+    log–log interpolation; None when it never does within the curve."""
+    curve = [(max(t, 1e-4), max(e, 1e-30)) for t, e in curve]
+    for (t0, e0), (t1, e1) in zip(curve, curve[1:]):
+        if e1 <= target <= e0 and e0 > e1:
+            a = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(t0) + a * (math.log(t1) - math.log(t0)))
+    if curve and curve[0][1] <= target:
+        return curve[0][0]
+    return None
+
+
+def plot(name, rows, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    for renderer, style in (("glint", "o-"), ("cycles", "s--")):
+        pts = [(r["seconds"], r["relmse"]) for r in rows if r["renderer"] == renderer]
+        ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, label=renderer.capitalize())
+    ax.set_xlabel("rendering time (s)")
+    ax.set_ylabel("relative MSE (ε = 0.01)")
+    ax.set_title(f"{name}: error against time")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", default="convergence")
+    parser.add_argument("--size", type=int, default=64)
+    parser.add_argument("--max-spp", type=int, default=256)
+    parser.add_argument("--reference-spp", type=int, default=4096)
+    parser.add_argument("--scenes", default=",".join(SCENES))
+    args = parser.parse_args()
+    executable = os.environ.get("GLINT_EXECUTABLE", str(REPO / "target" / "release" / "glint"))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    addons = tempfile.mkdtemp(prefix="glint-addon-path-")
+    os.symlink(REPO / "addon", os.path.join(addons, "glint"))
+    sys.path.insert(0, addons)
+    import glint
+
+    glint.register()
+    os.environ["GLINT_EXECUTABLE"] = executable
+    status = 0
+    try:
+        for name in args.scenes.split(","):
+            scene = setup(SCENES[name], args.size)
+            work = Path(tempfile.mkdtemp(prefix=f"glint-conv-{name}-"))
+            ref, ref_seconds = cycles(scene, args.reference_spp, work / "ref.exr", seed=12345)
+            print(f"{name}: Cycles reference {args.reference_spp} spp in {ref_seconds:.1f} s", flush=True)
+            export_for_glint(scene, work)
+            rows = []
+            spp = 1
+            while spp <= args.max_spp:
+                img, t = cycles(scene, spp, work / f"c{spp}.exr")
+                rows.append({"renderer": "cycles", "spp": spp, "seconds": t, **dict(zip(("relmse", "rmse"), errors(img, ref)))})
+                img, t = glint_render(executable, work, spp, work / f"g{spp}.exr")
+                rows.append({"renderer": "glint", "spp": spp, "seconds": t, **dict(zip(("relmse", "rmse"), errors(img, ref)))})
+                spp *= 2
+            # Glint's bias against the converged Cycles image, per channel.
+            g_hi, _ = glint_render(executable, work, args.reference_spp // 4, work / "g-hi.exr")
+            bias = g_hi.reshape(-1, 3).mean(axis=0) / ref.reshape(-1, 3).mean(axis=0) - 1
+            with open(out / f"{name}.csv", "w", newline="") as f:
+                w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "relmse", "rmse"])
+                w.writeheader()
+                w.writerows(rows)
+            plot(name, rows, out / f"{name}.png")
+            glint_curve = [(r["seconds"], r["relmse"]) for r in rows if r["renderer"] == "glint"]
+            print(f"{name}: Glint bias against Cycles' reference (R, G, B): {np.round(bias * 100, 2)} %")
+            print(f"{name}: spp | Cycles s | Cycles relMSE | Glint s to that error | speed-up")
+            for r in (r for r in rows if r["renderer"] == "cycles"):
+                t = time_to_reach(glint_curve, r["relmse"])
+                speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
+                print(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}")
+            print(f"{name}: wrote {out / (name + '.csv')} and {out / (name + '.png')}", flush=True)
+    except Exception as e:  # noqa: BLE001
+        print(f"error: {e}", file=sys.stderr)
+        status = 1
+    finally:
+        glint.unregister()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        # bpy deadlocks at exit after a Python render engine has run.
+        os._exit(status)
+
+
+if __name__ == "__main__":
+    main()
