@@ -140,6 +140,17 @@ def render_request(depsgraph, job, width, height):
         "two_sided_emission": True,
         "area_lights": area_lights(depsgraph),
     }
+    single_scatter = sorted(
+        {
+            slot.material.name
+            for i in depsgraph.object_instances
+            for slot in getattr(i.object, "material_slots", [])
+            if slot.material is not None and slot.material.use_nodes and slot.material.node_tree is not None
+            and any(n.type == "BSDF_PRINCIPLED" and n.distribution == "GGX" for n in slot.material.node_tree.nodes)
+        }
+    )
+    if single_scatter:
+        request["single_scatter_materials"] = single_scatter
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
     if scene.camera is not None:

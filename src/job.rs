@@ -79,9 +79,23 @@ pub struct Job {
     pub budget: Budget,
 }
 
-/// Load a scene (None: the embedded default) and apply the options and area
-/// lights. Errors are one line naming the file.
-pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, area_lights: &[AreaLight]) -> Result<Job, String> {
+/// What a render request adds to a scene besides options.
+#[derive(Clone, Copy, Default)]
+pub struct SceneExtras<'a> {
+    pub area_lights: &'a [AreaLight],
+    /// Materials rendered with plain (single-scattering) GGX.
+    pub single_scatter_materials: &'a [String],
+}
+
+impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
+    fn from(r: &'a RenderRequest) -> Self {
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials }
+    }
+}
+
+/// Load a scene (None: the embedded default) and apply the options and the
+/// request's extras. Errors are one line naming the file.
+pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExtras) -> Result<Job, String> {
     let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone() };
     let (mut scene, name) = match scene_file {
         Some(path) => (loader::load_file(path, &load).map_err(|e| e.to_string())?, path.display().to_string()),
@@ -101,7 +115,10 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, area_lights: &[A
             m.double_sided = true;
         }
     }
-    crate::lamps::add_area_lights(&mut scene, area_lights).map_err(|e| format!("{name}: {e}"))?;
+    for m in scene.materials.iter_mut().filter(|m| extras.single_scatter_materials.contains(&m.name)) {
+        m.multiscatter = false;
+    }
+    crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
     let (width, height) = resolution(options.width, options.height, scene.camera.aspect_ratio);
     let time = options.time_limit.filter(|t| *t > 0.0).map(Duration::from_secs_f64);
     let samples = match options.samples {

@@ -164,14 +164,13 @@ fn thread_pool(threads: Option<u32>) -> Result<rayon::ThreadPool> {
 
 fn render(args: RenderArgs) -> Result<()> {
     let mut options = args.options.job_options();
-    let mut area_lights = Vec::new();
-    if let Some(path) = &args.request {
-        let request = RenderRequest::read(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        options = options.or(&JobOptions::from(&request));
-        area_lights = request.area_lights;
-    }
+    let request = match &args.request {
+        Some(path) => RenderRequest::read(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
+        None => RenderRequest::default(),
+    };
+    options = options.or(&JobOptions::from(&request));
     let load_start = Instant::now();
-    let Job { scene, settings, budget } = job::prepare(args.scene.as_deref(), &options, &area_lights).map_err(anyhow::Error::msg)?;
+    let Job { scene, settings, budget } = job::prepare(args.scene.as_deref(), &options, (&request).into()).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
     let scene_name = args.scene.as_ref().map_or(glint::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     for w in &scene.warnings {

@@ -51,6 +51,9 @@ pub struct RenderRequest {
     /// Every emissive surface emits from both faces, as Blender's Emission
     /// does in Cycles (glTF's doubleSided is Blender's backface culling).
     pub two_sided_emission: Option<bool>,
+    /// Materials, by name, whose Principled BSDF uses plain "GGX" rather
+    /// than Cycles' default "Multiscatter GGX".
+    pub single_scatter_materials: Vec<String>,
     pub area_lights: Vec<AreaLight>,
 }
 

@@ -297,7 +297,7 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
     let options = JobOptions::from(&request).or(defaults);
     let scene_path = paths.scene(&request);
     let output_path = request.output.as_ref().map_or(paths.default_output.clone(), |o| paths.dir.join(o));
-    let job = match job::prepare(Some(&scene_path), &options, &request.area_lights) {
+    let job = match job::prepare(Some(&scene_path), &options, (&request).into()) {
         Ok(job) => job,
         Err(e) => return failed(status, job_id, e),
     };
