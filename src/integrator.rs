@@ -1,12 +1,14 @@
-//! The seed's path tracer:
+//! The path tracer, generic over the BSDF model:
 //!
 //!   L = L_emit + L_dir + L_indir
 //!
-//! * L_emit: emission seen directly, added at the camera ray's hit only.
-//! * L_dir: next-event estimation. A point x' is sampled on the emitters
-//!   (by power: pdf_A = lum(Le)/Σ lum(Le_j)A_j, see lights.rs; the seed
-//!   sampled by area, 1/A_total) and joined by a shadow ray:
+//! * L_emit: emission seen directly, added at the camera ray's hit only,
+//!   and the World (`Scene::background`) seen by any ray that escapes.
+//! * L_dir: next-event estimation. A light is picked by power (lights.rs;
+//!   the seed sampled emitters by area, 1/A_total). On an emitting triangle
+//!   a point x' has pdf_A = π·lum(Le)/P_total and is joined by a shadow ray:
 //!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
+//!   A point, spot or sun light gives f · cosθ · E / p_pick (punctual.rs).
 //! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
 //!   that light was already counted by L_dir.
@@ -261,9 +263,8 @@ pub fn radiance<B: Bsdf>(ctx: &Context, origin: Vec3, dir: Vec3, settings: &Rend
         // A lamp in front of the surface adds its light; the ray goes on.
         if let Some(lamp) = ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) {
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
-            let front_face = tri.cross().dot(d) < 0.0;
             let cos_light = tri.cross().normalize().dot(d);
-            l += beta * emission_seen(ctx, &ctx.scene.materials[tri.material as usize], front_face, lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
+            l += beta * emission_seen(ctx, &ctx.scene.materials[tri.material as usize], cos_light < 0.0, lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
         }
         // Nothing is lit by the background through light sampling (yet),
         // so every ray that escapes takes it whole.

@@ -163,12 +163,11 @@ fn thread_pool(threads: Option<u32>) -> Result<rayon::ThreadPool> {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    let mut options = args.options.job_options();
     let request = match &args.request {
         Some(path) => RenderRequest::read(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
         None => RenderRequest::default(),
     };
-    options = options.or(&JobOptions::from(&request));
+    let options = args.options.job_options().or(&JobOptions::from(&request));
     let load_start = Instant::now();
     let Job { scene, settings, budget } = job::prepare(args.scene.as_deref(), &options, (&request).into()).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
@@ -181,9 +180,10 @@ fn render(args: RenderArgs) -> Result<()> {
     let threads = pool.current_num_threads();
 
     let (ctx, build_time) = Context::new(&scene);
-    // The Principled energy tables are built once per process; build them
-    // before the clock starts, with the rest of the set-up.
-    if settings.bsdf == BsdfModel::Principled {
+    // The Principled energy tables are built once per process, and only for
+    // a scene with a glossy layer; build them before the clock starts, with
+    // the rest of the set-up.
+    if settings.bsdf == BsdfModel::Principled && !scene.materials.iter().all(|m| m.is_pure_lambert()) {
         glint::bsdf::energy::tables();
     }
     let total = (budget.samples > 0).then(|| width as u64 * height as u64 * budget.samples as u64);

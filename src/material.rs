@@ -44,6 +44,11 @@ impl Default for Material {
 }
 
 impl Material {
+    /// No glossy layer at all: not metallic and KHR_materials_specular 0.
+    pub fn is_pure_lambert(&self) -> bool {
+        self.metallic <= 0.0 && self.specular <= 0.0
+    }
+
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
     }

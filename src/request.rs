@@ -94,7 +94,6 @@ impl RenderRequest {
         }
         Ok(())
     }
-
 }
 
 #[cfg(test)]

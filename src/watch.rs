@@ -31,7 +31,6 @@ use crate::progressive::render_progressive;
 use crate::render::Film;
 use crate::request::RenderRequest;
 use anyhow::{bail, Context as _, Result};
-use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{channel, RecvTimeoutError};
@@ -208,7 +207,7 @@ pub fn run(options: &WatchOptions, pool: &rayon::ThreadPool) -> Result<()> {
     if options.exit_with_stdin {
         let stdin_tx = tx.clone();
         std::thread::spawn(move || {
-            let _ = std::io::copy(&mut std::io::stdin().lock().take(u64::MAX), &mut std::io::sink());
+            let _ = std::io::copy(&mut std::io::stdin().lock(), &mut std::io::sink());
             let _ = stdin_tx.send(Signal::Quit);
         });
     }

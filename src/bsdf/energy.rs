@@ -54,6 +54,18 @@ fn column(mu: f32) -> f32 {
     mu.clamp(0.0, 1.0).sqrt() * (N - 1) as f32
 }
 
+/// Fractional grid row of a roughness.
+fn row(roughness: f32) -> f32 {
+    roughness.clamp(0.0, 1.0) * (N - 1) as f32
+}
+
+/// Linear interpolation of N grid values at fractional index x ∈ [0, N−1].
+fn lerp_grid(values: &[f32], x: f32) -> f32 {
+    let i = (x as usize).min(N - 2);
+    let t = x - i as f32;
+    values[i] * (1.0 - t) + values[i + 1] * t
+}
+
 /// A view direction at cosine μ (tiny μ is held at 1e-3: the lobe's
 /// albedo is continuous there, the sampler's arithmetic is not).
 fn view(mu: f32) -> Vec3 {
@@ -105,13 +117,7 @@ impl EnergyTables {
     fn build() -> Self {
         // Rows in parallel: 2 × 1024 entries × 2304 samples.
         let e: Vec<f32> = (0..N * N).into_par_iter().map(|k| single_scatter_albedo(grid_mu(k % N), grid(k / N), |_| 1.0)).collect();
-        let lookup_e = |ri: usize, mu: f32| {
-            let x = column(mu);
-            let i = (x as usize).min(N - 2);
-            let t = x - i as f32;
-            e[ri * N + i] * (1.0 - t) + e[ri * N + i + 1] * t
-        };
-        let e_avg: Vec<f32> = (0..N).map(|ri| cosine_average(|mu| lookup_e(ri, mu))).collect();
+        let e_avg: Vec<f32> = e.chunks(N).map(|e_row| cosine_average(|mu| lerp_grid(e_row, column(mu)))).collect();
         let f_avg = cosine_average(|mu| fresnel_dielectric(mu, DIELECTRIC_ETA));
         let e_layer: Vec<f32> = (0..N * N)
             .into_par_iter()
@@ -125,13 +131,12 @@ impl EnergyTables {
     }
 
     fn bilinear(table: &[f32], mu: f32, roughness: f32) -> f32 {
-        let (x, y) = (column(mu), roughness.clamp(0.0, 1.0) * (N - 1) as f32);
-        let (i, j) = ((x as usize).min(N - 2), (y as usize).min(N - 2));
-        let (tx, ty) = (x - i as f32, y - j as f32);
-        let at = |j: usize, i: usize| table[j * N + i];
-        let a = at(j, i) * (1.0 - tx) + at(j, i + 1) * tx;
-        let b = at(j + 1, i) * (1.0 - tx) + at(j + 1, i + 1) * tx;
-        a * (1.0 - ty) + b * ty
+        let (x, y) = (column(mu), row(roughness));
+        let j = (y as usize).min(N - 2);
+        let a = lerp_grid(&table[j * N..(j + 1) * N], x);
+        let b = lerp_grid(&table[(j + 1) * N..(j + 2) * N], x);
+        let t = y - j as f32;
+        a * (1.0 - t) + b * t
     }
 
     pub fn e(&self, mu: f32, roughness: f32) -> f32 {
@@ -139,10 +144,7 @@ impl EnergyTables {
     }
 
     pub fn e_avg(&self, roughness: f32) -> f32 {
-        let y = roughness.clamp(0.0, 1.0) * (N - 1) as f32;
-        let j = (y as usize).min(N - 2);
-        let t = y - j as f32;
-        self.e_avg[j] * (1.0 - t) + self.e_avg[j + 1] * t
+        lerp_grid(&self.e_avg, row(roughness))
     }
 
     pub fn e_layer(&self, mu: f32, roughness: f32) -> f32 {

@@ -53,24 +53,22 @@ impl PrincipledBsdf {
         let base = m.base_color.clamp(Vec3::ZERO, Vec3::ONE);
         let specular = m.specular.clamp(0.0, 1.0);
         let mu = wo.z.clamp(0.0, 1.0);
-        if metallic == 0.0 && specular == 0.0 {
-            // Pure Lambert: no glossy lobe, nothing to look up.
+        if m.is_pure_lambert() {
+            // No glossy lobe, nothing to look up.
             return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0 };
         }
-        let t = tables();
-        let (s_metal, s_dielectric) = if m.multiscatter && !smooth {
+        // A mirror loses nothing to single scattering and its layer albedo
+        // is the Fresnel reflectance itself.
+        let (s_metal, s_dielectric, layer) = if smooth {
+            (Vec3::ONE, 1.0, fresnel_dielectric(mu, DIELECTRIC_ETA))
+        } else {
+            let t = tables();
             let (e, e_avg) = (t.e(mu, roughness), t.e_avg(roughness));
-            (ms_scale(e, e_avg, schlick_average(base)), ms_scale(e, e_avg, Vec3::splat(t.dielectric_f_avg)).x)
-        } else {
-            (Vec3::ONE, 1.0)
+            (ms_scale(e, e_avg, schlick_average(base)), ms_scale(e, e_avg, Vec3::splat(t.dielectric_f_avg)).x, t.e_layer(mu, roughness))
         };
-        let layer = if smooth {
-            fresnel_dielectric(mu, DIELECTRIC_ETA)
-        } else if m.multiscatter {
-            t.e_layer(mu, roughness)
-        } else {
-            t.e_layer(mu, roughness) / ms_scale(t.e(mu, roughness), t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x
-        };
+        // Plain GGX: no compensation, and a layer that reflects only its
+        // single scattering (the table holds the compensated albedo).
+        let (s_metal, s_dielectric, layer) = if m.multiscatter { (s_metal, s_dielectric, layer) } else { (Vec3::ONE, 1.0, layer / s_dielectric) };
         let diffuse_weight = (1.0 - metallic) * (1.0 - specular * layer).max(0.0);
         // Lobe choice by expected reflectance at this wo: the metal's ≈ its
         // average Fresnel, the dielectric layer's E_layer. As in the seed

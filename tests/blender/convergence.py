@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from helpers import give_principled, read_exr  # noqa: E402
+from helpers import add_camera, fair_cycles, give_principled, plain_world, read_exr  # noqa: E402
 
 BOUNCES = 8
 
@@ -61,15 +61,8 @@ def gold_sphere(scene):
     lamp.location = (2.0, -2.0, 3.0)
     lamp.rotation_euler = (math.radians(40), 0, math.radians(45))
     scene.collection.objects.link(lamp)
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.2, 0.2, 1)
-    scene.world = world
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.location = (0, -5, 1.0)
-    camera.rotation_euler = (math.radians(85), 0, 0)
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    plain_world(scene, (0.2, 0.2, 0.2))
+    add_camera(scene, (0, -5, 1.0), (math.radians(85), 0, 0))
 
 
 SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere}
@@ -84,23 +77,14 @@ def setup(build, size):
     scene.render.image_settings.file_format = "OPEN_EXR"
     scene.render.image_settings.color_depth = "32"
     scene.view_settings.view_transform = "Standard"
-    c = scene.cycles
-    scene.render.engine = "CYCLES"
-    c.device = "CPU"
-    c.use_denoising = c.use_adaptive_sampling = False
-    c.blur_glossy = 0.0
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.light_sampling_threshold = 0.0
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = BOUNCES
-    c.pixel_filter_type, c.filter_width = "BOX", 1.0
+    fair_cycles(scene, 1, BOUNCES)
     scene.render.threads_mode = "AUTO"
     scene.glint.max_bounces = BOUNCES
     return scene
 
 
 def cycles(scene, spp, path, seed=0):
-    scene.render.engine = "CYCLES"
-    scene.cycles.samples, scene.cycles.seed = spp, seed
+    fair_cycles(scene, spp, BOUNCES, seed)
     start = time.perf_counter()
     bpy.ops.render.render()
     seconds = time.perf_counter() - start

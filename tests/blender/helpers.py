@@ -27,3 +27,39 @@ def read_exr(path):
         return px.reshape(h, w, 4)
     finally:
         bpy.data.images.remove(image)
+
+
+def fair_cycles(scene, samples, bounces, seed=0):
+    """Cycles set for a fair comparison with Glint: CPU; no denoising,
+    adaptive sampling, glossy blur, clamping or light threshold; the same
+    bounce limit for every ray type; a one-pixel box filter, as Glint's."""
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device, c.samples, c.seed = "CPU", samples, seed
+    c.use_denoising = c.use_adaptive_sampling = False
+    c.blur_glossy = 0.0
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.light_sampling_threshold = 0.0
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
+    c.pixel_filter_type, c.filter_width = "BOX", 1.0
+
+
+def add_camera(scene, location, rotation=(0.0, 0.0, 0.0), lens=50.0):
+    """A camera named "Camera" (rotation in radians), made the scene's."""
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = location, rotation
+    camera.data.lens = lens
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return camera
+
+
+def plain_world(scene, colour, strength=1.0):
+    """A World of one Background colour × strength."""
+    world = bpy.data.worlds.new("World")
+    world.use_nodes = True
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (*colour, 1.0)
+    background.inputs["Strength"].default_value = strength
+    scene.world = world
+    return world

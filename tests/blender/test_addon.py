@@ -12,7 +12,7 @@ import pytest
 
 import glint
 from glint import daemon
-from helpers import give_principled, read_exr
+from helpers import add_camera, give_principled, plain_world, read_exr
 
 WIDTH, HEIGHT = 48, 36
 
@@ -33,17 +33,8 @@ def build_scene(scene):
     lamp = bpy.data.objects.new("Panel", light)
     lamp.location = (0, 0, 4)
     scene.collection.objects.link(lamp)
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True
-    bg = world.node_tree.nodes["Background"]
-    bg.inputs["Color"].default_value = (0.2, 0.3, 0.5, 1)
-    bg.inputs["Strength"].default_value = 0.5
-    scene.world = world
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.location = (0, -7, 3)
-    cam.rotation_euler = (math.radians(72), 0, 0)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
+    plain_world(scene, (0.2, 0.3, 0.5), 0.5)
+    cam = add_camera(scene, (0, -7, 3), (math.radians(72), 0, 0))
     scene.render.resolution_x, scene.render.resolution_y = WIDTH, HEIGHT
     scene.glint.samples = 8
     scene.glint.max_bounces = 4

@@ -8,7 +8,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from helpers import give_principled, read_exr
+from helpers import add_camera, fair_cycles, give_principled, read_exr
 
 
 def scene_with_light(scene, shape, rotation):
@@ -21,11 +21,7 @@ def scene_with_light(scene, shape, rotation):
     lamp = bpy.data.objects.new("Lamp", light)
     lamp.location, lamp.rotation_euler = (0.2, -0.1, 1.0), rotation
     scene.collection.objects.link(lamp)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.location = (0, 0, 3)
-    camera.data.lens = 2000  # a 2 cm spot on the floor
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    add_camera(scene, (0, 0, 3), lens=2000)  # a 2 cm spot on the floor
     scene.world = None
     scene.render.resolution_x = scene.render.resolution_y = 16
 
@@ -43,12 +39,7 @@ def test_area_light_lights_the_floor_as_in_cycles(empty_scene, tmp_path, shape, 
     scene = empty_scene
     scene_with_light(scene, shape, rotation)
     scene.view_settings.view_transform = "Standard"
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", 256, False, False
-    c.max_bounces = 0
-    c.light_sampling_threshold = 0.0
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    fair_cycles(scene, 256, 0)
     bpy.ops.render.render()
     bpy.data.images["Render Result"].save_render(str(tmp_path / "cycles.exr"))
     scene.render.engine = "GLINT"

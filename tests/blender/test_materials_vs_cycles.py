@@ -9,7 +9,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from helpers import give_principled, read_exr
+from helpers import add_camera, fair_cycles, give_principled, plain_world, read_exr
 
 SIZE, TILE = 32, 8
 BOUNCES = 4
@@ -26,31 +26,10 @@ def sphere_scene(scene, metallic, roughness, base, distribution="MULTI_GGX"):
     lamp.location = (3.0, -2.0, 3.0)
     lamp.rotation_euler = (math.radians(45), 0, math.radians(55))
     scene.collection.objects.link(lamp)
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.5, 0.5, 0.5, 1)
-    scene.world = world
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.location = (0, -4.5, 0)
-    camera.rotation_euler = (math.radians(90), 0, 0)
-    camera.data.lens = 60
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    plain_world(scene, (0.5, 0.5, 0.5))
+    add_camera(scene, (0, -4.5, 0), (math.radians(90), 0, 0), lens=60)
     scene.render.resolution_x = scene.render.resolution_y = SIZE
     scene.view_settings.view_transform = "Standard"
-
-
-def fair_cycles(scene, samples, seed):
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device, c.samples, c.seed = "CPU", samples, seed
-    c.use_denoising = c.use_adaptive_sampling = False
-    c.blur_glossy = 0.0
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.light_sampling_threshold = 0.0
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = BOUNCES
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 1.0
 
 
 def render(scene, path):
@@ -93,7 +72,7 @@ def tile_noise(a, b):
 
 
 def compare(scene, tmp_path, samples):
-    fair_cycles(scene, samples, 1)
+    fair_cycles(scene, samples, BOUNCES, seed=1)
     c1 = render(scene, tmp_path / "c1.exr")
     scene.cycles.seed = 2
     c2 = render(scene, tmp_path / "c2.exr")

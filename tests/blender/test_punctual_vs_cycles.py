@@ -8,7 +8,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from helpers import give_principled, read_exr
+from helpers import add_camera, fair_cycles, give_principled, read_exr
 
 SIZE, TILE = 32, 8
 
@@ -16,11 +16,7 @@ SIZE, TILE = 32, 8
 def floor_and_camera(scene):
     bpy.ops.mesh.primitive_plane_add(size=100)
     give_principled(bpy.context.object, "Floor", Base_Color=(0.5, 0.5, 0.5, 1), Roughness=1.0, Specular_IOR_Level=0.0)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.location = (0, 0, 6)
-    camera.data.lens = 18  # a 12 m wide view of the floor
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    add_camera(scene, (0, 0, 6), lens=18)  # a 12 m wide view of the floor
     scene.world = None
     scene.render.resolution_x = scene.render.resolution_y = SIZE
     scene.view_settings.view_transform = "Standard"
@@ -47,16 +43,10 @@ def add_light(scene, kind):
 
 
 def render(scene, engine, seed, path):
-    scene.render.engine = engine
     if engine == "CYCLES":
-        c = scene.cycles
-        c.device, c.samples, c.seed = "CPU", 64, seed
-        c.use_denoising = c.use_adaptive_sampling = False
-        c.max_bounces = 0
-        c.light_sampling_threshold = 0.0
-        c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-        c.pixel_filter_type, c.filter_width = "BOX", 1.0
+        fair_cycles(scene, 64, 0, seed)
     else:
+        scene.render.engine = engine
         scene.glint.samples, scene.glint.max_bounces, scene.glint.seed = 64, 0, seed
     bpy.ops.render.render()
     bpy.data.images["Render Result"].save_render(str(path))
