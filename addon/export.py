@@ -8,7 +8,8 @@ KHR_materials_specular 0, cameras and mesh geometry with modifiers applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²) and render punctual: a light's radius, soft
 falloff and a sun's angle are not carried. Not carried, or not yet rendered
-by Glint: textures, transmission, other Principled inputs (coat, sheen,
+by Glint: textures (neither images nor UVs are exported; the user is
+warned), transmission, other Principled inputs (coat, sheen,
 subsurface, anisotropy, thin film), and World node setups other than a plain
 Background.
 
@@ -53,6 +54,15 @@ def export_scene(path, frame, subframe):
         export_morph=False,
         export_extras=False,
         export_materials="EXPORT",
+        # Only what Glint renders: no texture is rendered yet, so no images,
+        # texture coordinates, tangents, vertex colours or attributes.
+        export_image_format="NONE",
+        export_texcoords=False,
+        export_tangents=False,
+        export_vertex_color="NONE",
+        export_all_vertex_colors=False,
+        export_active_vertex_color_when_no_material=False,
+        export_attributes=False,
     )
     if "FINISHED" not in result or not os.path.isfile(tmp):
         raise RuntimeError("Blender's glTF exporter did not finish")
@@ -122,6 +132,9 @@ def render_request(depsgraph, job, width, height):
             )
         }
     )
+    textured = sorted(material.name for material in used_materials(depsgraph) if uses_image_texture(material))
+    if textured:
+        warnings.append(f"{', '.join(textured)}: image textures are not rendered by Glint yet and are not exported; the node's own values are used")
     if soft:
         warnings.append(f"{', '.join(soft)}: Glint renders point, spot and sun lights as punctual (radius and angle 0), so their shadows are hard")
     request = {
@@ -141,13 +154,7 @@ def render_request(depsgraph, job, width, height):
         "area_lights": area_lights(depsgraph),
     }
     single_scatter = sorted(
-        {
-            slot.material.name
-            for i in depsgraph.object_instances
-            for slot in getattr(i.object, "material_slots", [])
-            if slot.material is not None and slot.material.use_nodes and slot.material.node_tree is not None
-            and any(n.type == "BSDF_PRINCIPLED" and n.distribution == "GGX" for n in slot.material.node_tree.nodes)
-        }
+        m.name for m in used_materials(depsgraph) if any(n.type == "BSDF_PRINCIPLED" and n.distribution == "GGX" for n in m.node_tree.nodes)
     )
     if single_scatter:
         request["single_scatter_materials"] = single_scatter
@@ -156,6 +163,21 @@ def render_request(depsgraph, job, width, height):
     if scene.camera is not None:
         request["camera"] = scene.camera.name
     return request, warnings
+
+
+def used_materials(depsgraph):
+    """The node materials of every rendered object, once each."""
+    found = {}
+    for i in depsgraph.object_instances:
+        for slot in getattr(i.object, "material_slots", []):
+            m = slot.material
+            if m is not None and m.use_nodes and m.node_tree is not None:
+                found[m.name] = m
+    return list(found.values())
+
+
+def uses_image_texture(material):
+    return any(n.type == "TEX_IMAGE" and n.image is not None and any(o.is_linked for o in n.outputs) for n in material.node_tree.nodes)
 
 
 def json_bytes(obj):

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Writes cornell-box.gltf, Glint's embedded default scene (run from anywhere).
+"""Writes cornell-box.gltf, Glint's embedded default scene, and
+cornell-box-diffuse.gltf (run from anywhere).
 
 A 2 m Cornell box (glTF units are metres, Y up): white floor, ceiling and back
 wall, red left and green right wall, a 0.5 m square ceiling light facing down,
@@ -7,6 +8,11 @@ a short white box and a rough gold sphere. Reflectances are the classic
 Cornell values in linear Rec.709; the light's radiance is (17, 12, 4)
 W·sr⁻¹·m⁻², given as emissiveFactor × KHR_materials_emissive_strength the way
 Blender's exporter writes it. Deterministic: the same bytes every run.
+
+The diffuse variant has the same geometry with every material pure Lambert:
+KHR_materials_specular specularFactor 0 (what Blender exports for Specular
+IOR Level 0) and a white sphere instead of the gold one. It is the scene of
+the feature-specialisation benchmark (examples/features.rs).
 """
 import base64, json, math, struct, pathlib
 
@@ -118,6 +124,19 @@ doc = {
     "bufferViews": views,
     "accessors": accessors,
 }
-out = pathlib.Path(__file__).with_name("cornell-box.gltf")
-out.write_text(json.dumps(doc, indent=1) + "\n")
-print(f"wrote {out} ({len(buf)} bytes of geometry)")
+def write(name, doc):
+    out = pathlib.Path(__file__).with_name(name)
+    out.write_text(json.dumps(doc, indent=1) + "\n")
+    print(f"wrote {out} ({len(buf)} bytes of geometry)")
+
+
+write("cornell-box.gltf", doc)
+
+diffuse = json.loads(json.dumps(doc))
+diffuse["extensionsUsed"].append("KHR_materials_specular")
+for m in diffuse["materials"]:
+    if m["name"] == "gold":
+        m["name"] = "white sphere"
+        m["pbrMetallicRoughness"] = dict(materials["white"]["pbrMetallicRoughness"])
+    m.setdefault("extensions", {})["KHR_materials_specular"] = {"specularFactor": 0.0}
+write("cornell-box-diffuse.gltf", diffuse)

@@ -26,6 +26,7 @@
 
 use crate::accel::{Accel, Hit};
 use crate::bsdf::Bsdf;
+use crate::features::{Features, Kernel};
 use crate::lights::{LightChoice, LightSample, Lights};
 use crate::punctual::PunctualLight;
 use crate::material::Material;
@@ -47,6 +48,8 @@ pub struct Context<'a> {
     /// without area lights, when a query costs one branch).
     pub lamps: Accel,
     pub lights: Lights,
+    /// What the scene uses, which picks the kernel.
+    pub features: Features,
 }
 
 impl<'a> Context<'a> {
@@ -55,7 +58,18 @@ impl<'a> Context<'a> {
         let (accel, surface_time) = Accel::build_subset(&scene.triangles, &surfaces);
         let (lamps, lamp_time) = Accel::build_subset(&scene.triangles, &lamps);
         let lights = Lights::new(scene);
-        (Context { scene, accel, lamps, lights }, surface_time + lamp_time)
+        let features = Features::of(scene);
+        (Context { scene, accel, lamps, lights, features }, surface_time + lamp_time)
+    }
+
+    /// The kernel these settings run on this scene.
+    pub fn kernel(&self, settings: &RenderSettings) -> Kernel {
+        Kernel::choose(&self.features, &self.lights, settings.bsdf, settings.features)
+    }
+
+    /// The line every render starts with: what the scene uses, what runs.
+    pub fn features_line(&self, settings: &RenderSettings) -> String {
+        format!("features: {}; kernel: {}", self.features, self.kernel(settings))
     }
 }
 
@@ -165,12 +179,20 @@ fn light_pdf_solid_angle(pdf_area: f32, dist2: f32, cos_light: f32) -> f32 {
 
 /// L_dir at one surface point: one light sample and its shadow ray,
 /// MIS-weighted against BSDF sampling when `mis` is set.
-fn direct_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+/// With no light at all it draws no random numbers, so a kernel that
+/// leaves light sampling out sees the same random sequence.
+fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    if ctx.lights.is_empty() {
+        return Vec3::ZERO;
+    }
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
     match ctx.lights.sample(ctx.scene, u_pick, u) {
         None => Vec3::ZERO,
-        Some(LightChoice::Area(ls)) => area_light(ctx, si, bsdf, wo, mis, &ls, rays),
-        Some(LightChoice::Punctual { index, probability }) => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, rays),
+        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rays),
+        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, rays),
+        // Not in this kernel: Kernel::choose leaves a part out only when
+        // the light list has none of it.
+        Some(_) => Vec3::ZERO,
     }
 }
 
@@ -247,8 +269,17 @@ fn emission_seen(ctx: &Context, material: &Material, front_face: bool, t: f32, c
     le * weight
 }
 
-/// Radiance arriving along a camera ray.
-pub fn radiance<B: Bsdf>(ctx: &Context, origin: Vec3, dir: Vec3, settings: &RenderSettings, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+/// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
+/// light parts that are on (features.rs; a part that is off is not tested
+/// for at all).
+pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
+    ctx: &Context,
+    origin: Vec3,
+    dir: Vec3,
+    settings: &RenderSettings,
+    rng: &mut Rng,
+    rays: &mut RayCounts,
+) -> Vec3 {
     let max_depth = settings.max_depth;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
@@ -261,7 +292,8 @@ pub fn radiance<B: Bsdf>(ctx: &Context, origin: Vec3, dir: Vec3, settings: &Rend
     for depth in 0..max_depth {
         let hit = ctx.accel.intersect(o, d, f32::INFINITY);
         // A lamp in front of the surface adds its light; the ray goes on.
-        if let Some(lamp) = ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) {
+        let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
+        if let Some(lamp) = lamp {
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
             let cos_light = tri.cross().normalize().dot(d);
             l += beta * emission_seen(ctx, &ctx.scene.materials[tri.material as usize], cos_light < 0.0, lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
@@ -274,11 +306,15 @@ pub fn radiance<B: Bsdf>(ctx: &Context, origin: Vec3, dir: Vec3, settings: &Rend
         };
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
-        l += beta * emission_seen(ctx, material, si.front_face, hit.t, si.ng.dot(d), depth, bsdf_pdf, from_delta, settings.mis);
+        if AREA {
+            l += beta * emission_seen(ctx, material, si.front_face, hit.t, si.ng.dot(d), depth, bsdf_pdf, from_delta, settings.mis);
+        }
         let wo = si.frame.to_local(-d);
         let bsdf = B::new(material, wo);
         let can_extend = depth + 1 < max_depth;
-        l += beta * direct_light(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);
+        if AREA || PUNCTUAL {
+            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);
+        }
 
         if !can_extend {
             break;

@@ -3,6 +3,7 @@
 //! everything the renderer needs. Shared by `glint render` and `glint watch`.
 
 use crate::bsdf::BsdfModel;
+use crate::features::FeatureMode;
 use crate::lamps::AreaLight;
 use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
@@ -31,6 +32,7 @@ pub struct JobOptions {
     pub background: Option<[f32; 3]>,
     pub bsdf: Option<BsdfModel>,
     pub two_sided_emission: Option<bool>,
+    pub features: Option<FeatureMode>,
 }
 
 impl JobOptions {
@@ -50,6 +52,7 @@ impl JobOptions {
             background: self.background.or(f.background),
             bsdf: self.bsdf.or(f.bsdf),
             two_sided_emission: self.two_sided_emission.or(f.two_sided_emission),
+            features: self.features.or(f.features),
         }
     }
 }
@@ -69,6 +72,7 @@ impl From<&RenderRequest> for JobOptions {
             background: r.background,
             bsdf: r.bsdf,
             two_sided_emission: r.two_sided_emission,
+            features: None,
         }
     }
 }
@@ -135,6 +139,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         seed: options.seed.unwrap_or(0),
         mis: options.mis.unwrap_or(true),
         bsdf: options.bsdf.unwrap_or_default(),
+        features: options.features.unwrap_or_default(),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

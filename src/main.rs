@@ -3,12 +3,13 @@
 use anyhow::{Context as _, Result};
 use clap::{Args, Parser, Subcommand};
 use glint::bsdf::BsdfModel;
+use glint::features::{FeatureMode, KernelBsdf};
 use glint::integrator::Context;
 use glint::job::{self, Job, JobOptions};
 use glint::loader;
 use glint::output;
 use glint::progressive::render_progressive;
-use glint::render::{Film, PassStats};
+use glint::render::{render_pass, Film, PassStats};
 use glint::request::RenderRequest;
 use glint::watch::WatchOptions;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -75,6 +76,10 @@ struct RenderOptions {
     /// World radiance R,G,B in W·sr⁻¹·m⁻² seen by rays that leave the scene [default: black].
     #[arg(long, value_delimiter = ',', num_args = 3)]
     background: Option<Vec<f32>>,
+    /// Kernel: the one the scene's features need, or the general one that
+    /// does everything (same image for the same seed; for comparison) [default: auto].
+    #[arg(long, value_parser = ["auto", "all"])]
+    features: Option<String>,
     /// Worker threads [default: all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
@@ -95,6 +100,7 @@ impl RenderOptions {
             background: self.background.as_ref().map(|b| [b[0], b[1], b[2]]),
             bsdf: self.bsdf.as_deref().map(|b| if b == "seed" { BsdfModel::Seed } else { BsdfModel::Principled }),
             two_sided_emission: None,
+            features: self.features.as_deref().map(|f| if f == "all" { FeatureMode::All } else { FeatureMode::Auto }),
         }
     }
 }
@@ -180,10 +186,11 @@ fn render(args: RenderArgs) -> Result<()> {
     let threads = pool.current_num_threads();
 
     let (ctx, build_time) = Context::new(&scene);
+    eprintln!("{}", ctx.features_line(&settings));
     // The Principled energy tables are built once per process, and only for
-    // a scene with a glossy layer; build them before the clock starts, with
-    // the rest of the set-up.
-    if settings.bsdf == BsdfModel::Principled && !scene.materials.iter().all(|m| m.is_pure_lambert()) {
+    // a kernel that has a glossy layer; build them before the clock starts,
+    // with the rest of the set-up.
+    if ctx.kernel(&settings).bsdf == KernelBsdf::Principled {
         glint::bsdf::energy::tables();
     }
     let total = (budget.samples > 0).then(|| width as u64 * height as u64 * budget.samples as u64);
@@ -200,7 +207,13 @@ fn render(args: RenderArgs) -> Result<()> {
         }
     };
     let mut film = Film::new(width, height);
-    let stats: PassStats = pool.install(|| render_progressive(&ctx, &settings, &budget, &mut film, &cancel, &on_progress, &mut |_| {}))?;
+    // A fixed sample count renders in one pass: the per-pixel sums are then
+    // grouped the same way however fast the kernel is, so the image depends
+    // on the settings alone, bit for bit (a time limit needs passes).
+    let stats: PassStats = pool.install(|| match budget.time {
+        None => render_pass(&ctx, &settings, &mut film, 0..budget.samples, &cancel, &on_progress),
+        Some(_) => render_progressive(&ctx, &settings, &budget, &mut film, &cancel, &on_progress, &mut |_| {}),
+    })?;
     let seconds = started.elapsed().as_secs_f64();
     progress.finish_and_clear();
 
@@ -219,6 +232,9 @@ fn render(args: RenderArgs) -> Result<()> {
         eprintln!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
         eprintln!("time: {:.4} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
         eprintln!("discarded non-finite samples: {}", stats.discarded);
+        if let Some(kib) = peak_rss_kib() {
+            eprintln!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);
+        }
     }
     Ok(())
 }
@@ -247,4 +263,11 @@ fn write_outputs(exr: &Path, png: Option<&Path>, width: u32, height: u32, pixels
         output::write_png(png, width, height, pixels)?;
     }
     Ok(())
+}
+
+/// The process's peak resident set (VmHWM), where the OS reports it.
+fn peak_rss_kib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
 }

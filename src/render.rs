@@ -1,9 +1,10 @@
 //! The image loop: tiles of pixels in parallel, every sample filtered in one
 //! place. Each pixel sample draws from its own generator (seed, pixel,
-//! sample index), so an image is the same for any thread count or any split
-//! of its samples into passes.
+//! sample index), so an image is the same for any thread count, and for any
+//! split of its samples into passes up to the rounding of the sums.
 
-use crate::bsdf::{Bsdf, BsdfModel, PrincipledBsdf, SeedBsdf};
+use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf};
+use crate::features::{FeatureMode, KernelBsdf};
 use crate::integrator::{radiance, Context, RayCounts};
 use crate::rng::Rng;
 use glam::{Vec2, Vec3};
@@ -36,6 +37,8 @@ pub struct RenderSettings {
     /// off is the seed's rule (BSDF-sampled rays ignore emitters).
     pub mis: bool,
     pub bsdf: BsdfModel,
+    /// The kernel the scene needs, or the general one (features.rs).
+    pub features: FeatureMode,
 }
 
 /// Sums of radiance samples per pixel, row-major from the top-left.
@@ -88,14 +91,31 @@ pub fn render_pass(
     cancel: &AtomicBool,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<PassStats, Cancelled> {
-    // One monomorphised kernel per model: the choice is made once a pass.
-    match settings.bsdf {
-        BsdfModel::Seed => render_pass_with::<SeedBsdf>(ctx, settings, film, samples, cancel, progress),
-        BsdfModel::Principled => render_pass_with::<PrincipledBsdf>(ctx, settings, film, samples, cancel, progress),
+    // One monomorphised kernel per BSDF and set of light parts: the choice
+    // is made once a pass, never per sample.
+    let kernel = ctx.kernel(settings);
+    macro_rules! lights {
+        ($b:ty) => {
+            match (kernel.area, kernel.punctual, kernel.lamps) {
+                (false, false, false) => render_pass_with::<$b, false, false, false>(ctx, settings, film, samples, cancel, progress),
+                (false, false, true) => render_pass_with::<$b, false, false, true>(ctx, settings, film, samples, cancel, progress),
+                (false, true, false) => render_pass_with::<$b, false, true, false>(ctx, settings, film, samples, cancel, progress),
+                (false, true, true) => render_pass_with::<$b, false, true, true>(ctx, settings, film, samples, cancel, progress),
+                (true, false, false) => render_pass_with::<$b, true, false, false>(ctx, settings, film, samples, cancel, progress),
+                (true, false, true) => render_pass_with::<$b, true, false, true>(ctx, settings, film, samples, cancel, progress),
+                (true, true, false) => render_pass_with::<$b, true, true, false>(ctx, settings, film, samples, cancel, progress),
+                (true, true, true) => render_pass_with::<$b, true, true, true>(ctx, settings, film, samples, cancel, progress),
+            }
+        };
+    }
+    match kernel.bsdf {
+        KernelBsdf::Lambert => lights!(LambertBsdf),
+        KernelBsdf::Seed => lights!(SeedBsdf),
+        KernelBsdf::Principled => lights!(PrincipledBsdf),
     }
 }
 
-fn render_pass_with<B: Bsdf>(
+fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
     ctx: &Context,
     settings: &RenderSettings,
     film: &mut Film,
@@ -123,7 +143,7 @@ fn render_pass_with<B: Bsdf>(
                         let mut rng = Rng::for_sample(settings.seed, pixel, s as u64);
                         let jitter = rng.next_2d();
                         let (o, d) = ctx.scene.camera.ray(Vec2::new(x as f32, y as f32) + jitter, w, h);
-                        let l = radiance::<B>(ctx, o, d, settings, &mut rng, &mut stats.rays);
+                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, o, d, settings, &mut rng, &mut stats.rays);
                         if l.is_finite() {
                             sum += l;
                         } else {

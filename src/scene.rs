@@ -38,12 +38,17 @@ pub struct Scene {
     pub punctual: Vec<PunctualLight>,
     /// One line each; the CLI prints them, the daemon logs them.
     pub warnings: Vec<String>,
+    /// Materials that reference a texture (not rendered yet: their factors are).
+    pub textured_materials: usize,
+    /// Bytes of buffer data the loader read or decoded: only what the
+    /// chosen scene references.
+    pub bytes_read: u64,
 }
 
 impl Scene {
     /// A black background and no warnings.
     pub fn new(triangles: Vec<Triangle>, materials: Vec<Material>, camera: Camera) -> Self {
-        Scene { triangles, materials, camera, background: Vec3::ZERO, punctual: Vec::new(), warnings: Vec::new() }
+        Scene { triangles, materials, camera, background: Vec3::ZERO, punctual: Vec::new(), warnings: Vec::new(), textured_materials: 0, bytes_read: 0 }
     }
 
     /// Whether a triangle is lamp geometry rather than a surface.

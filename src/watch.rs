@@ -305,6 +305,8 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
     }
     let (settings, budget) = (&job.settings, &job.budget);
     let (ctx, _) = Context::new(&job.scene);
+    let features = ctx.features_line(settings);
+    eprintln!("glint watch: {}: {features}", scene_path.display());
     let mut film = Film::new(settings.width, settings.height);
     let line = |state, samples, elapsed, message| StatusLine {
         job: job_id,
@@ -317,7 +319,7 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
         message,
         warnings: &job.scene.warnings,
     };
-    status.write(line("rendering", 0, 0.0, ""));
+    status.write(line("rendering", 0, 0.0, &features));
     let mut last_image: Option<Instant> = None;
     let mut write_error: Option<String> = None;
     let result = render_progressive(&ctx, settings, budget, &mut film, cancel, &|_| {}, &mut |p| {

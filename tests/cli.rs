@@ -100,3 +100,26 @@ fn inspect_reports_a_sample_model() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("12 triangles") && out.contains("no perspective camera"), "{out}");
 }
+
+/// Every render starts with one line saying what the scene uses and which
+/// kernel runs; `--features all` forces the general kernel, and for the
+/// same seed both write the same pixels.
+#[test]
+fn the_features_line_and_the_general_kernel() {
+    let dir = temp_dir("features");
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box-diffuse.gltf");
+    let mut images = Vec::new();
+    for (mode, kernel) in [("auto", "kernel: lambert + emitters"), ("all", "kernel: principled + emitters + lamps + punctual")] {
+        let exr = dir.join(format!("{mode}.exr"));
+        let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "3", "--width", "24", "--height", "24", "--features", mode]);
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        let line = err.lines().next().unwrap_or_default();
+        assert_eq!(line, format!("features: diffuse, emitters=1 (2 tris), one-sided emission; {kernel}"));
+        images.push(glint::output::read_exr(&exr).unwrap().2);
+    }
+    assert_eq!(images[0], images[1]);
+    let o = glint(&["render", scene.to_str().unwrap(), "--features", "some"]);
+    assert!(!o.status.success() && stderr(&o).contains("--features"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -220,3 +220,50 @@ fn point_and_sun_light_a_floor_as_the_inverse_square_and_cosine_laws_say() {
         assert!((mean - expected as f64).abs() < 5.0 * se + 1e-4 * expected as f64, "{mean} vs {expected} (se {se})");
     }
 }
+
+/// A scene pays only for what it uses (features.rs): every kernel the
+/// features choose renders the general kernel's image bit for bit, for the
+/// same seed, whatever parts it leaves out.
+#[test]
+fn specialised_kernels_render_the_general_kernels_image() {
+    use common::{diffuse, horizontal_quad, look_at};
+    use glint::features::{FeatureMode, KernelBsdf};
+    use glint::lamps::{AreaLight, LampShape};
+    use glint::material::Material;
+    use glint::punctual::{PunctualKind, PunctualLight};
+
+    let floor = |material: Material| {
+        let camera = look_at(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, 0.9);
+        Scene::new(horizontal_quad(Vec3::ZERO, 2.0, 0.0, true, 0), vec![material], camera)
+    };
+    let metal = Material { name: "metal".into(), base_color: Vec3::new(0.9, 0.6, 0.3), metallic: 1.0, roughness: 0.4, ..Material::default() };
+    let mut sky = floor(diffuse("floor", 0.5));
+    sky.background = Vec3::new(0.2, 0.3, 0.4);
+    let mut point = floor(diffuse("floor", 0.5));
+    point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0) });
+    let mut lamp = floor(metal.clone());
+    let m = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, 1.0, 0.0));
+    let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0 };
+    glint::lamps::add_area_lights(&mut lamp, &[light]).unwrap();
+    let cornell = load_bytes(glint::DEFAULT_SCENE.as_bytes(), None, "cornell", &LoadOptions::default()).unwrap();
+    let cases = [
+        ("closed diffuse box", closed_box(0.5, 0.5), "lambert + emitters"),
+        ("floor under a sky", sky, "lambert + no light sampling"),
+        ("floor under a point light", point, "lambert + punctual"),
+        ("metal under an area light", lamp, "principled + emitters + lamps"),
+        ("Cornell box", cornell, "principled + emitters"),
+    ];
+    for (what, scene, kernel) in cases {
+        let (ctx, _) = Context::new(&scene);
+        let base = RenderSettings { mis: true, ..settings(24, 24, 8, 6, 5) };
+        let auto = RenderSettings { features: FeatureMode::Auto, ..base.clone() };
+        let all = RenderSettings { features: FeatureMode::All, ..base };
+        assert_eq!(ctx.kernel(&auto).to_string(), kernel, "{what}");
+        assert_ne!(ctx.kernel(&all).bsdf, KernelBsdf::Lambert);
+        let (a, _) = render(&scene, &auto, 2);
+        let (b, _) = render(&scene, &all, 2);
+        assert!(a.iter().any(|p| p.max_element() > 0.0), "{what}: black image");
+        let bits = |img: &[Vec3]| img.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+        assert!(bits(&a) == bits(&b), "{what}: the {kernel} kernel's image differs from the general kernel's");
+    }
+}

@@ -255,6 +255,39 @@ impl SeedBsdf {
     }
 }
 
+/// A pure Lambert surface, for scenes that have nothing else (features.rs).
+/// It computes exactly what both models compute for a non-metal with
+/// specular 0, in the same order, so the images agree bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct LambertBsdf {
+    albedo: Vec3,
+}
+
+impl LambertBsdf {
+    pub fn new(m: &Material, _wo: Vec3) -> Self {
+        LambertBsdf { albedo: m.base_color.clamp(Vec3::ZERO, Vec3::ONE) }
+    }
+
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        lambert::eval(self.albedo, wo, wi)
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        lambert::pdf(wo, wi)
+    }
+
+    pub fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if cos_theta(wo) <= 0.0 {
+            return None;
+        }
+        let wi = lambert::sample(u);
+        let pdf = self.pdf(wo, wi);
+        let f = self.eval(wo, wi);
+        let weight = f * (cos_theta(wi) / pdf);
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
+    }
+}
+
 /// A material evaluated at one shading point, for one outgoing direction:
 /// what the integrator needs of any BSDF model.
 pub trait Bsdf {
@@ -297,6 +330,7 @@ macro_rules! impl_bsdf {
         }
     };
 }
+impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
 impl_bsdf!(PrincipledBsdf);
 

@@ -196,23 +196,6 @@ fn seed_dielectric_energy_gain_is_the_known_one() {
 }
 
 #[test]
-fn zero_specular_dielectric_is_exactly_lambert() {
-    let mut m = material(Vec3::new(0.5, 0.6, 0.7), 0.0, 0.4);
-    m.specular = 0.0;
-    let mut rng = Rng::new(8, 8);
-    for theta in [0.0f32, 50.0, 89.0] {
-        let wo = dir_at(theta);
-        let bsdf = SeedBsdf::new(&m, wo);
-        assert_eq!(bsdf.spec_probability, 0.0);
-        for _ in 0..1000 {
-            let s = bsdf.sample(wo, rng.next_f32(), rng.next_2d()).unwrap();
-            assert!((s.f - m.base_color / std::f32::consts::PI).abs().max_element() < 1e-6);
-            assert!((s.pdf - s.wi.z / std::f32::consts::PI).abs() < 1e-5);
-        }
-    }
-}
-
-#[test]
 fn seed_material_is_reciprocal() {
     let mut rng = Rng::new(6, 6);
     for _ in 0..10_000 {
@@ -352,19 +335,30 @@ fn without_multiscatter_a_rough_white_metal_loses_what_single_scattering_loses()
     assert!((a - (1.0 - std::f32::consts::LN_2)).abs() < 0.005, "{a}");
 }
 
+/// A non-metal with specular 0 is exactly Lambert in both models, bit for
+/// bit, so the Lambert kernel renders the same image (features.rs).
 #[test]
-fn principled_zero_specular_dielectric_is_exactly_lambert() {
-    let mut m = material(Vec3::new(0.5, 0.6, 0.7), 0.0, 0.4);
-    m.specular = 0.0;
-    let mut rng = Rng::new(8, 8);
-    for theta in [0.0f32, 50.0, 89.0] {
-        let wo = dir_at(theta);
-        let bsdf = PrincipledBsdf::new(&m, wo);
-        assert_eq!(bsdf.glossy_probability, 0.0);
-        for _ in 0..1000 {
-            let s = bsdf.sample(wo, rng.next_f32(), rng.next_2d()).unwrap();
-            assert!((s.f - m.base_color / std::f32::consts::PI).abs().max_element() < 1e-6);
+fn zero_specular_dielectric_is_exactly_lambert_in_every_model() {
+    fn same<B: Bsdf>(m: &Material, rng: &mut Rng) {
+        for theta in [0.0f32, 50.0, 89.0, 89.99] {
+            let wo = dir_at(theta);
+            let (bsdf, lambert) = (B::new(m, wo), LambertBsdf::new(m, wo));
+            for _ in 0..2000 {
+                let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
+                let (s, l) = (bsdf.sample(wo, u_lobe, u).unwrap(), lambert.sample(wo, u_lobe, u).unwrap());
+                assert_eq!((s.wi, s.f, s.pdf, s.weight, s.delta), (l.wi, l.f, l.pdf, l.weight, l.delta));
+                assert!((s.f - m.base_color / std::f32::consts::PI).abs().max_element() < 1e-6);
+                let wi = crate::sampling::cosine_hemisphere(rng.next_2d());
+                assert_eq!((bsdf.eval(wo, wi), bsdf.pdf(wo, wi)), (lambert.eval(wo, wi), lambert.pdf(wo, wi)));
+            }
         }
+    }
+    let mut rng = Rng::new(8, 8);
+    for roughness in [0.0, 0.4, 1.0] {
+        let mut m = material(Vec3::new(0.5, 0.6, 0.7), 0.0, roughness);
+        m.specular = 0.0;
+        same::<SeedBsdf>(&m, &mut rng);
+        same::<PrincipledBsdf>(&m, &mut rng);
     }
 }
 

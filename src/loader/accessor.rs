@@ -7,62 +7,105 @@ use super::buffers;
 use gltf::json::accessor::{ComponentType, Type};
 use gltf::json::validation::Checked;
 use gltf::json::Root;
+use std::fs::File;
+use std::ops::Range;
 use std::path::Path;
+use std::sync::Arc;
 
 /// More elements than any scene Glint renders; stops runaway allocations for
 /// accessors that have no bufferView (those are all zeros, however many).
 pub const MAX_ELEMENTS: u64 = 1 << 28;
 
-/// Buffers, loaded on first use so unreferenced ones are never read.
+/// A GLB's BIN chunk: in memory, or a byte range of the open scene file.
+#[derive(Clone)]
+pub enum BinChunk<'a> {
+    Memory(&'a [u8]),
+    File(Arc<File>, Range<u64>),
+}
+
+/// A buffer's bytes once its URI is resolved.
+enum Loaded<'a> {
+    /// A decoded data: URI.
+    Bytes(Vec<u8>),
+    /// Part of a GLB held in memory.
+    Slice(&'a [u8]),
+    /// `len` bytes of a file from `start`, read a bufferView at a time.
+    File { file: Arc<File>, start: u64, len: u64 },
+}
+
+/// Buffers, resolved on first use so unreferenced ones are never read; a
+/// file's bytes are read one referenced bufferView at a time, so data the
+/// scene does not use (other meshes, animations, images) stays on disk.
 pub struct Buffers<'a> {
     root: &'a Root,
-    bin: Option<&'a [u8]>,
+    bin: Option<BinChunk<'a>>,
     base_dir: Option<&'a Path>,
-    loaded: Vec<Option<Vec<u8>>>,
+    loaded: Vec<Option<Loaded<'a>>>,
+    views: Vec<Option<Vec<u8>>>,
+    /// Bytes read from files or decoded from data: URIs.
+    pub bytes_read: u64,
 }
 
 impl<'a> Buffers<'a> {
-    pub fn new(root: &'a Root, bin: Option<&'a [u8]>, base_dir: Option<&'a Path>) -> Self {
-        Buffers { root, bin, base_dir, loaded: vec![None; root.buffers.len()] }
+    pub fn new(root: &'a Root, bin: Option<BinChunk<'a>>, base_dir: Option<&'a Path>) -> Self {
+        Buffers {
+            root,
+            bin,
+            base_dir,
+            loaded: (0..root.buffers.len()).map(|_| None).collect(),
+            views: vec![None; root.buffer_views.len()],
+            bytes_read: 0,
+        }
     }
 
-    pub fn get(&mut self, index: usize) -> Result<&[u8], String> {
+    /// Resolve buffer `index` and check its length, without reading a file.
+    pub fn get(&mut self, index: usize) -> Result<(), String> {
         let buffer = self.root.buffers.get(index).ok_or_else(|| format!("buffer {index} does not exist"))?;
         let len = buffer.byte_length.0;
         if len > buffers::MAX_BUFFER_BYTES {
             return Err(format!("buffer {index} byteLength {len} is larger than Glint reads"));
         }
-        if self.loaded[index].is_none() {
-            let data = match buffer.uri.as_deref() {
-                None => {
-                    let bin = self.bin.ok_or_else(|| format!("buffer {index} has no uri and the file has no GLB BIN chunk"))?;
-                    if index != 0 {
-                        return Err(format!("buffer {index} has no uri; only buffer 0 may use the GLB BIN chunk"));
-                    }
-                    if (bin.len() as u64) < len {
-                        return Err(format!("buffer 0: GLB BIN chunk has {} bytes, byteLength says {len}", bin.len()));
-                    }
-                    bin[..len as usize].to_vec()
-                }
-                Some(uri) => match buffers::decode_data_uri(uri) {
-                    Some(decoded) => {
-                        let mut d = decoded.map_err(|e| format!("buffer {index}: {e}"))?;
-                        if (d.len() as u64) < len {
-                            return Err(format!("buffer {index}: data URI holds {} bytes, byteLength says {len}", d.len()));
-                        }
-                        d.truncate(len as usize);
-                        d
-                    }
-                    None => {
-                        let base = self.base_dir.ok_or_else(|| format!("buffer {index}: external file '{uri}' but the scene has no folder"))?;
-                        let path = buffers::resolve_relative(uri, base).map_err(|e| format!("buffer {index}: {e}"))?;
-                        buffers::read_file_prefix(&path, len).map_err(|e| format!("buffer {index}: {e}"))?
-                    }
-                },
-            };
-            self.loaded[index] = Some(data);
+        if self.loaded[index].is_some() {
+            return Ok(());
         }
-        Ok(self.loaded[index].as_deref().unwrap_or(&[]))
+        let loaded = match buffer.uri.as_deref() {
+            None => {
+                let bin = self.bin.clone().ok_or_else(|| format!("buffer {index} has no uri and the file has no GLB BIN chunk"))?;
+                if index != 0 {
+                    return Err(format!("buffer {index} has no uri; only buffer 0 may use the GLB BIN chunk"));
+                }
+                let available = match &bin {
+                    BinChunk::Memory(b) => b.len() as u64,
+                    BinChunk::File(_, range) => range.end - range.start,
+                };
+                if available < len {
+                    return Err(format!("buffer 0: GLB BIN chunk has {available} bytes, byteLength says {len}"));
+                }
+                match bin {
+                    BinChunk::Memory(b) => Loaded::Slice(&b[..len as usize]),
+                    BinChunk::File(file, range) => Loaded::File { file, start: range.start, len },
+                }
+            }
+            Some(uri) => match buffers::decode_data_uri(uri) {
+                Some(decoded) => {
+                    let mut d = decoded.map_err(|e| format!("buffer {index}: {e}"))?;
+                    if (d.len() as u64) < len {
+                        return Err(format!("buffer {index}: data URI holds {} bytes, byteLength says {len}", d.len()));
+                    }
+                    d.truncate(len as usize);
+                    self.bytes_read += len;
+                    Loaded::Bytes(d)
+                }
+                None => {
+                    let base = self.base_dir.ok_or_else(|| format!("buffer {index}: external file '{uri}' but the scene has no folder"))?;
+                    let path = buffers::resolve_relative(uri, base).map_err(|e| format!("buffer {index}: {e}"))?;
+                    let file = buffers::open_at_least(&path, len).map_err(|e| format!("buffer {index}: {e}"))?;
+                    Loaded::File { file: Arc::new(file), start: 0, len }
+                }
+            },
+        };
+        self.loaded[index] = Some(loaded);
+        Ok(())
     }
 
     /// The bytes of a buffer view, checked against its buffer.
@@ -72,11 +115,35 @@ impl<'a> Buffers<'a> {
         let offset = view.byte_offset.map_or(0, |o| o.0);
         let end = offset.checked_add(view.byte_length.0).ok_or_else(|| format!("bufferView {index} range overflows"))?;
         let stride = view.byte_stride.map(|s| s.0);
-        let data = self.get(view.buffer.value())?;
-        if end > data.len() as u64 {
-            return Err(format!("bufferView {index} (bytes {offset}..{end}) runs past its buffer ({} bytes)", data.len()));
+        let buffer = view.buffer.value();
+        self.get(buffer)?;
+        let buffer_len = match &self.loaded[buffer] {
+            Some(Loaded::Bytes(b)) => b.len() as u64,
+            Some(Loaded::Slice(b)) => b.len() as u64,
+            Some(Loaded::File { len, .. }) => *len,
+            None => 0,
+        };
+        if end > buffer_len {
+            return Err(format!("bufferView {index} (bytes {offset}..{end}) runs past its buffer ({buffer_len} bytes)"));
         }
-        Ok((&data[offset as usize..end as usize], stride))
+        let (offset, end) = (offset as usize, end as usize);
+        let data: &[u8] = match &self.loaded[buffer] {
+            Some(Loaded::Bytes(b)) => &b[offset..end],
+            Some(Loaded::Slice(b)) => &b[offset..end],
+            Some(Loaded::File { file, start, .. }) => {
+                if self.views[index].is_none() {
+                    let bytes = buffers::read_range(file, start + offset as u64, end - offset).map_err(|e| format!("bufferView {index}: {e}"))?;
+                    if bytes.len() < end - offset {
+                        return Err(format!("bufferView {index}: the file ended after {} of {} bytes (was it changed while read?)", bytes.len(), end - offset));
+                    }
+                    self.bytes_read += bytes.len() as u64;
+                    self.views[index] = Some(bytes);
+                }
+                self.views[index].as_deref().unwrap_or(&[])
+            }
+            None => &[],
+        };
+        Ok((data, stride))
     }
 }
 

@@ -5,7 +5,7 @@
 
 use base64::Engine;
 use std::fs::File;
-use std::io::Read;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::{Component, Path, PathBuf};
 
 /// Largest buffer Glint will read (glTF byteLength is a u64).
@@ -50,8 +50,8 @@ pub fn resolve_relative(uri: &str, base_dir: &Path) -> Result<PathBuf, String> {
     Ok(canon)
 }
 
-/// Read exactly `len` bytes from a regular file (it may be longer).
-pub fn read_file_prefix(path: &Path, len: u64) -> Result<Vec<u8>, String> {
+/// Open a regular file that holds at least `len` bytes (it may be longer).
+pub fn open_at_least(path: &Path, len: u64) -> Result<File, String> {
     let meta = std::fs::metadata(path).map_err(|e| format!("'{}': {e}", path.display()))?;
     if !meta.is_file() {
         return Err(format!("'{}' is not a regular file", path.display()));
@@ -59,13 +59,16 @@ pub fn read_file_prefix(path: &Path, len: u64) -> Result<Vec<u8>, String> {
     if meta.len() < len {
         return Err(format!("'{}' has {} bytes, byteLength says {len}", path.display(), meta.len()));
     }
-    let mut data = Vec::with_capacity(len as usize);
-    File::open(path)
-        .and_then(|f| f.take(len).read_to_end(&mut data))
-        .map_err(|e| format!("'{}': {e}", path.display()))?;
-    if (data.len() as u64) < len {
-        return Err(format!("'{}' ended after {} bytes, byteLength says {len}", path.display(), data.len()));
-    }
+    File::open(path).map_err(|e| format!("'{}': {e}", path.display()))
+}
+
+/// Read `len` bytes at `offset`; fewer only where the file ends (a file
+/// can shrink while it is read: the daemon's scene is rewritten by Blender).
+pub fn read_range(mut file: &File, offset: u64, len: usize) -> Result<Vec<u8>, String> {
+    let mut data = Vec::new();
+    data.try_reserve_exact(len).map_err(|e| format!("cannot hold {len} bytes: {e}"))?;
+    file.seek(SeekFrom::Start(offset)).map_err(|e| e.to_string())?;
+    file.take(len as u64).read_to_end(&mut data).map_err(|e| e.to_string())?;
     Ok(data)
 }
 
@@ -92,10 +95,11 @@ mod tests {
         assert!(resolve_relative("/etc/passwd", &dir).unwrap_err().contains("leaves"));
         assert!(resolve_relative("%FF.bin", &dir).unwrap_err().contains("UTF-8"));
         assert!(resolve_relative("http://example.com/x.bin", &dir).is_err());
-        assert!(read_file_prefix(&dir.join("sub/a b.bin"), 16).unwrap_err().contains("byteLength"));
-        assert_eq!(read_file_prefix(&dir.join("sub/a b.bin"), 4).unwrap().len(), 4);
-        assert!(read_file_prefix(&dir, 4).unwrap_err().contains("regular file"));
-        assert!(read_file_prefix(Path::new("/dev/zero"), 4).unwrap_err().contains("regular file"));
+        assert!(open_at_least(&dir.join("sub/a b.bin"), 16).unwrap_err().contains("byteLength"));
+        let f = open_at_least(&dir.join("sub/a b.bin"), 4).unwrap();
+        assert_eq!(read_range(&f, 6, 4).unwrap().len(), 2);
+        assert!(open_at_least(&dir, 4).unwrap_err().contains("regular file"));
+        assert!(open_at_least(Path::new("/dev/zero"), 4).unwrap_err().contains("regular file"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -2,14 +2,17 @@
 //! optional BIN chunk. Every length is checked against the bytes really
 //! present, since a header can claim gigabytes the file does not hold.
 
+use std::ops::Range;
+
 const MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
 
-#[derive(Debug)]
-pub struct Glb<'a> {
-    pub json: &'a [u8],
-    pub bin: Option<&'a [u8]>,
+/// Where the chunks of a GLB lie, as byte ranges of the file.
+#[derive(Debug, PartialEq)]
+pub struct Layout {
+    pub json: Range<u64>,
+    pub bin: Option<Range<u64>>,
 }
 
 pub fn is_glb(bytes: &[u8]) -> bool {
@@ -21,48 +24,58 @@ fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
     Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
 }
 
-pub fn parse(bytes: &[u8]) -> Result<Glb<'_>, String> {
-    let version = u32_at(bytes, 4).ok_or("GLB header is shorter than 12 bytes")?;
-    let length = u32_at(bytes, 8).ok_or("GLB header is shorter than 12 bytes")? as usize;
+/// Find the chunks of a GLB of `file_len` bytes, reading only its headers
+/// through `read(offset, len)` (which may return fewer bytes at the end):
+/// a file's BIN chunk is then read a bufferView at a time, never whole.
+pub fn layout(file_len: u64, read: &mut dyn FnMut(u64, usize) -> Result<Vec<u8>, String>) -> Result<Layout, String> {
+    let header = read(0, 12)?;
+    let version = u32_at(&header, 4).ok_or("GLB header is shorter than 12 bytes")?;
+    let length = u32_at(&header, 8).ok_or("GLB header is shorter than 12 bytes")? as u64;
     if version != 2 {
         return Err(format!("GLB version {version} is not supported (only 2)"));
     }
-    if length > bytes.len() {
-        return Err(format!("GLB header says {length} bytes but the file has {}", bytes.len()));
+    if length > file_len {
+        return Err(format!("GLB header says {length} bytes but the file has {file_len}"));
     }
     if length < 12 {
         return Err(format!("GLB header length {length} is shorter than the header"));
     }
-    let data = &bytes[..length];
-    let mut at = 12usize;
+    let mut at = 12u64;
     let mut json = None;
     let mut bin = None;
-    while at < data.len() {
-        let chunk_len = u32_at(data, at).ok_or("GLB chunk header is truncated")? as usize;
-        let chunk_type = u32_at(data, at + 4).ok_or("GLB chunk header is truncated")?;
+    while at < length {
+        let chunk = read(at, 8)?;
+        let chunk_len = u32_at(&chunk, 0).ok_or("GLB chunk header is truncated")? as u64;
+        let chunk_type = u32_at(&chunk, 4).ok_or("GLB chunk header is truncated")?;
         let start = at + 8;
-        let end = start
-            .checked_add(chunk_len)
-            .filter(|&e| e <= data.len())
+        let end = Some(start + chunk_len)
+            .filter(|&e| e <= length)
             .ok_or_else(|| format!("GLB chunk at byte {at} claims {chunk_len} bytes past the end of the file"))?;
-        let body = &data[start..end];
         match chunk_type {
             CHUNK_JSON if json.is_none() => {
                 if at != 12 {
                     return Err("GLB JSON chunk is not the first chunk".into());
                 }
-                json = Some(body);
+                json = Some(start..end);
             }
             CHUNK_JSON => return Err("GLB has more than one JSON chunk".into()),
-            CHUNK_BIN if bin.is_none() => bin = Some(body),
+            CHUNK_BIN if bin.is_none() => bin = Some(start..end),
             CHUNK_BIN => return Err("GLB has more than one BIN chunk".into()),
             _ => {} // Unknown chunks are skipped, as the spec asks.
         }
         // Chunks are 4-byte aligned.
-        at = end.checked_add(3).map(|e| e & !3).unwrap_or(usize::MAX);
+        at = (end + 3) & !3;
     }
     let json = json.ok_or("GLB has no JSON chunk")?;
-    Ok(Glb { json, bin })
+    Ok(Layout { json, bin })
+}
+
+/// The layout of a GLB held in memory.
+pub fn parse(bytes: &[u8]) -> Result<Layout, String> {
+    layout(bytes.len() as u64, &mut |offset, len| {
+        let start = (offset as usize).min(bytes.len());
+        Ok(bytes[start..start.saturating_add(len).min(bytes.len())].to_vec())
+    })
 }
 
 #[cfg(test)]
@@ -96,8 +109,9 @@ mod tests {
     fn reads_json_and_bin() {
         let f = glb(b"{}", Some(&[1, 2, 3]), None);
         let g = parse(&f).unwrap();
-        assert_eq!(g.json.trim_ascii(), b"{}");
-        assert_eq!(&g.bin.unwrap()[..3], &[1, 2, 3]);
+        let range = |r: std::ops::Range<u64>| &f[r.start as usize..r.end as usize];
+        assert_eq!(range(g.json).trim_ascii(), b"{}");
+        assert_eq!(&range(g.bin.unwrap())[..3], &[1, 2, 3]);
     }
 
     #[test]

@@ -12,15 +12,17 @@ use crate::camera::Camera;
 use crate::material::Material;
 use crate::punctual::{PunctualKind, PunctualLight};
 use crate::scene::{Scene, Triangle};
-use accessor::{read_floats, read_indices, Buffers};
+use accessor::{read_floats, read_indices, BinChunk, Buffers};
 use glam::{Mat3, Mat4, Quat, Vec3};
 use gltf::json::accessor::Type;
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 use gltf::json::Root;
 use std::collections::HashMap;
-use std::io::Read;
+use std::fs::File;
+use std::ops::Range;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Largest scene file Glint reads.
 pub const MAX_SCENE_BYTES: u64 = 2 << 30;
@@ -71,11 +73,9 @@ pub struct Inspection {
 /// `glint inspect`.
 pub fn inspect_file(path: &Path) -> Result<Inspection, LoadError> {
     let fail = |message: String| LoadError { file: path.display().to_string(), message };
-    let bytes = read_scene_file(path).map_err(fail)?;
-    let dir = scene_dir(path);
-    let (json, bin) = split_container(&bytes).map_err(fail)?;
-    let root = parse_root(json).map_err(fail)?;
-    let mut b = Builder::new(&root, bin, dir);
+    let file = SceneFile::open(path).map_err(fail)?;
+    let root = parse_root(&file.json).map_err(fail)?;
+    let mut b = Builder::new(&root, file.bin(), scene_dir(path));
     let triangles = b.walk_everything().map_err(fail)?;
     let camera_problem = b.pick_camera(None).err();
     Ok(Inspection {
@@ -87,32 +87,47 @@ pub fn inspect_file(path: &Path) -> Result<Inspection, LoadError> {
     })
 }
 
-fn read_scene_file(path: &Path) -> Result<Vec<u8>, String> {
-    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
-    if !meta.is_file() {
-        return Err("not a regular file".into());
+/// A scene file opened for loading: its JSON read, a GLB's BIN chunk left
+/// in the file to be read a bufferView at a time.
+struct SceneFile {
+    json: Vec<u8>,
+    bin: Option<(Arc<File>, Range<u64>)>,
+}
+
+impl SceneFile {
+    fn open(path: &Path) -> Result<SceneFile, String> {
+        let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+        if !meta.is_file() {
+            return Err("not a regular file".into());
+        }
+        let file = File::open(path).map_err(|e| e.to_string())?;
+        let len = meta.len();
+        let head = buffers::read_range(&file, 0, 4)?;
+        if glb::is_glb(&head) {
+            let layout = glb::layout(len, &mut |offset, n| buffers::read_range(&file, offset, n))?;
+            let json_len = layout.json.end - layout.json.start;
+            if json_len > MAX_SCENE_BYTES {
+                return Err(format!("the GLB's JSON chunk is {json_len} bytes; Glint reads up to {MAX_SCENE_BYTES}"));
+            }
+            let json = buffers::read_range(&file, layout.json.start, json_len as usize)?;
+            if (json.len() as u64) < json_len {
+                return Err("the file ended inside its JSON chunk (was it changed while read?)".into());
+            }
+            return Ok(SceneFile { json, bin: layout.bin.map(|range| (Arc::new(file), range)) });
+        }
+        if len > MAX_SCENE_BYTES {
+            return Err(format!("file is {len} bytes; Glint reads scene files up to {MAX_SCENE_BYTES}"));
+        }
+        Ok(SceneFile { json: buffers::read_range(&file, 0, len as usize)?, bin: None })
     }
-    if meta.len() > MAX_SCENE_BYTES {
-        return Err(format!("file is {} bytes; Glint reads scene files up to {MAX_SCENE_BYTES}", meta.len()));
+
+    fn bin(&self) -> Option<BinChunk<'_>> {
+        self.bin.as_ref().map(|(file, range)| BinChunk::File(file.clone(), range.clone()))
     }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_SCENE_BYTES).read_to_end(&mut bytes))
-        .map_err(|e| e.to_string())?;
-    Ok(bytes)
 }
 
 fn scene_dir(path: &Path) -> Option<&Path> {
     path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
-}
-
-fn split_container(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
-    if glb::is_glb(bytes) {
-        let g = glb::parse(bytes)?;
-        Ok((g.json, g.bin))
-    } else {
-        Ok((bytes, None))
-    }
 }
 
 fn parse_root(json: &[u8]) -> Result<Root, String> {
@@ -127,18 +142,25 @@ fn parse_root(json: &[u8]) -> Result<Root, String> {
 }
 
 pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
-    let bytes = read_scene_file(path).map_err(|message| LoadError { file: path.display().to_string(), message })?;
-    load_bytes(&bytes, scene_dir(path), &path.display().to_string(), options)
+    let fail = |message: String| LoadError { file: path.display().to_string(), message };
+    let file = SceneFile::open(path).map_err(fail)?;
+    load_parts(&file.json, file.bin(), scene_dir(path), options).map_err(fail)
 }
 
 /// Load from memory. `base_dir` is where relative URIs point (None: only
 /// data: URIs and the GLB BIN chunk may be used); `name` is used in errors.
 pub fn load_bytes(bytes: &[u8], base_dir: Option<&Path>, name: &str, options: &LoadOptions) -> Result<Scene, LoadError> {
-    load_inner(bytes, base_dir, options).map_err(|message| LoadError { file: name.to_string(), message })
+    let fail = |message: String| LoadError { file: name.to_string(), message };
+    if glb::is_glb(bytes) {
+        let layout = glb::parse(bytes).map_err(fail)?;
+        let range = |r: Range<u64>| &bytes[r.start as usize..r.end as usize];
+        load_parts(range(layout.json), layout.bin.map(|b| BinChunk::Memory(range(b))), base_dir, options).map_err(fail)
+    } else {
+        load_parts(bytes, None, base_dir, options).map_err(fail)
+    }
 }
 
-fn load_inner(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOptions) -> Result<Scene, String> {
-    let (json, bin) = split_container(bytes)?;
+fn load_parts(json: &[u8], bin: Option<BinChunk>, base_dir: Option<&Path>, options: &LoadOptions) -> Result<Scene, String> {
     let root = parse_root(json)?;
     let mut builder = Builder::new(&root, bin, base_dir);
     builder.walk_scene(options.scene_index)?;
@@ -147,6 +169,8 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOptions) -> R
     let mut scene = Scene::new(builder.triangles, builder.materials, camera);
     scene.punctual = builder.lights;
     scene.warnings = warnings;
+    scene.textured_materials = builder.stats.textured_materials;
+    scene.bytes_read = builder.buffers.bytes_read;
     Ok(scene)
 }
 
@@ -192,7 +216,7 @@ fn local_transform(node: &gltf::json::scene::Node) -> Mat4 {
 }
 
 impl<'a> Builder<'a> {
-    fn new(root: &'a Root, bin: Option<&'a [u8]>, base_dir: Option<&'a Path>) -> Self {
+    fn new(root: &'a Root, bin: Option<BinChunk<'a>>, base_dir: Option<&'a Path>) -> Self {
         Builder {
             root,
             buffers: Buffers::new(root, bin, base_dir),

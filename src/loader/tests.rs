@@ -359,11 +359,26 @@ fn glb_with_bin_chunk_and_external_files() {
     assert_eq!(load_file(&dir.join("scene.gltf"), &LoadOptions::default()).unwrap().triangles.len(), 2);
     // The same as GLB with a BIN chunk.
     d["buffers"][0].as_object_mut().unwrap().remove("uri");
-    let mut json_bytes = d.to_string().into_bytes();
+    let glb = glb_file(&d, &buf);
+    std::fs::write(dir.join("scene.glb"), &glb).unwrap();
+    assert_eq!(load_file(&dir.join("scene.glb"), &LoadOptions::default()).unwrap().triangles.len(), 2);
+    // Missing file and a folder instead of a file.
+    let e = load_file(&dir.join("nope.gltf"), &LoadOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("nope.gltf"), "{e}");
+    assert!(load_file(&dir, &LoadOptions::default()).unwrap_err().to_string().contains("not a regular file"));
+    // A URI that leaves the folder.
+    d["buffers"][0]["uri"] = json!("../quad%20data.bin");
+    std::fs::write(dir.join("escape.gltf"), d.to_string()).unwrap();
+    assert!(load_file(&dir.join("escape.gltf"), &LoadOptions::default()).unwrap_err().to_string().contains("leaves the scene's folder"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+fn glb_file(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut json_bytes = doc.to_string().into_bytes();
     while json_bytes.len() % 4 != 0 {
         json_bytes.push(b' ');
     }
-    let mut bin = buf.clone();
+    let mut bin = bin.to_vec();
     while bin.len() % 4 != 0 {
         bin.push(0);
     }
@@ -377,16 +392,36 @@ fn glb_with_bin_chunk_and_external_files() {
     glb.extend((bin.len() as u32).to_le_bytes());
     glb.extend(0x004E_4942u32.to_le_bytes());
     glb.extend(&bin);
-    std::fs::write(dir.join("scene.glb"), &glb).unwrap();
-    assert_eq!(load_file(&dir.join("scene.glb"), &LoadOptions::default()).unwrap().triangles.len(), 2);
-    // Missing file and a folder instead of a file.
-    let e = load_file(&dir.join("nope.gltf"), &LoadOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("nope.gltf"), "{e}");
-    assert!(load_file(&dir, &LoadOptions::default()).unwrap_err().to_string().contains("not a regular file"));
-    // A URI that leaves the folder.
-    d["buffers"][0]["uri"] = json!("../quad%20data.bin");
-    std::fs::write(dir.join("escape.gltf"), d.to_string()).unwrap();
-    assert!(load_file(&dir.join("escape.gltf"), &LoadOptions::default()).unwrap_err().to_string().contains("leaves the scene's folder"));
+    glb
+}
+
+/// A file's buffer that also holds data no node references (here 4 MB
+/// behind an unused mesh): only the bufferViews the scene uses are read,
+/// from a GLB's BIN chunk and from an external .bin alike.
+#[test]
+fn unreferenced_bytes_of_a_file_stay_on_disk() {
+    let dir = std::env::temp_dir().join(format!("glint-loader-unused-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut buf = quad_buffer();
+    let used = buf.len() as u64;
+    let unused = 4 << 20;
+    buf.extend(std::iter::repeat_n(7u8, unused));
+    let mut d = base_doc();
+    d["buffers"][0] = json!({"byteLength": buf.len()});
+    d["bufferViews"].as_array_mut().unwrap().push(json!({"buffer": 0, "byteOffset": used, "byteLength": unused}));
+    d["accessors"].as_array_mut().unwrap().push(json!({"bufferView": 3, "componentType": 5126, "count": unused / 12, "type": "VEC3"}));
+    d["meshes"].as_array_mut().unwrap().push(json!({"primitives": [{"attributes": {"POSITION": 3}}]}));
+    std::fs::write(dir.join("scene.glb"), glb_file(&d, &buf)).unwrap();
+    std::fs::write(dir.join("data.bin"), &buf).unwrap();
+    d["buffers"][0]["uri"] = json!("data.bin");
+    std::fs::write(dir.join("scene.gltf"), d.to_string()).unwrap();
+    for name in ["scene.glb", "scene.gltf"] {
+        let scene = load_file(&dir.join(name), &LoadOptions::default()).unwrap();
+        assert_eq!(scene.triangles.len(), 2);
+        assert_eq!(scene.bytes_read, used, "{name}: read {} bytes, the scene uses {used}", scene.bytes_read);
+        // Checking the whole file does read it all.
+        assert_eq!(inspect_file(&dir.join(name)).unwrap().triangles, 2);
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import glint
-from glint import daemon
+from glint import daemon, export
 from helpers import add_camera, give_principled, plain_world, read_exr
 
 WIDTH, HEIGHT = 48, 36
@@ -39,6 +39,14 @@ def build_scene(scene):
     scene.glint.samples = 8
     scene.glint.max_bounces = 4
     return cam
+
+
+def glb_json(path):
+    """The JSON chunk of a GLB file."""
+    with open(path, "rb") as f:
+        data = f.read()
+    length = int.from_bytes(data[12:16], "little")
+    return json.loads(data[20 : 20 + length])
 
 
 def render_to(path):
@@ -79,8 +87,21 @@ def test_the_request_carries_area_lights_and_the_world(empty_scene):
     texture.image = bpy.data.images.new("Checker", 8, 8)
     texture.image.generated_type = "UV_GRID"
     red.node_tree.links.new(texture.outputs["Color"], red.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    # An animation and a vertex colour layer: data Glint does not render.
+    sphere = bpy.data.objects["Sphere"]
+    sphere.keyframe_insert("location", frame=1)
+    sphere.location.z += 1
+    sphere.keyframe_insert("location", frame=10)
+    sphere.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert any(w.startswith("Red: image textures are not rendered") for w in warnings), warnings
     bpy.ops.render.render()
-    assert any("use textures" in w for w in daemon.current().status()["warnings"]), daemon.current().status()["warnings"]
+    # The exported file holds only what Glint renders: no images, textures,
+    # texture coordinates, tangents, colours, animations or skins.
+    doc = glb_json(daemon.current().path("scene.glb"))
+    attributes = {a for mesh in doc["meshes"] for p in mesh["primitives"] for a in p["attributes"]}
+    assert attributes == {"POSITION", "NORMAL"}, attributes
+    assert not any(doc.get(k) for k in ("images", "textures", "samplers", "animations", "skins")), sorted(doc)
     request = json.loads(open(daemon.current().path("request.json")).read())
     assert request["background"] == pytest.approx([0.1, 0.15, 0.25])
     (panel,) = request["area_lights"]

@@ -1,0 +1,248 @@
+//! What a scene uses, found once at load, and the kernel chosen for it.
+//!
+//! A scene pays only for what it uses: the integrator and the BSDF are
+//! compiled once for each combination of the parts below (render.rs
+//! dispatches), so a kernel without a part never tests for it per sample:
+//!
+//! * BSDF: a scene whose every surface is pure Lambert (not metallic and
+//!   KHR_materials_specular 0, which Blender exports for Specular IOR Level
+//!   0) runs `LambertBsdf` and never evaluates a microfacet term;
+//! * emitting triangles (surfaces and area lights): without them there is
+//!   no emission lookup at hits and no area-light sampling;
+//! * punctual lights: without them light sampling never considers one;
+//! * lamps (Blender area lights, which rays pass through): without them no
+//!   ray is tested against the lamp BVH;
+//! * no light at all: no light sampling, no random numbers drawn for it.
+//!
+//! `FeatureMode::All` forces the general kernel (every part on, the BSDF
+//! model's full code) for comparison: for the same seed it gives the same
+//! image, bit for bit.
+//!
+//! Textures are not rendered yet, so no kernel interpolates UVs; a scene
+//! that references them says so in its features line.
+
+use crate::bsdf::BsdfModel;
+use crate::lights::Lights;
+use crate::scene::Scene;
+use glam::Vec3;
+use std::fmt;
+
+/// Whether the kernel follows the scene or does everything.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FeatureMode {
+    /// The kernel the scene's features need.
+    #[default]
+    Auto,
+    /// The general kernel, whatever the scene uses.
+    All,
+}
+
+/// What the scene's rendered surfaces and lights use.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    /// Some surface has a Lambert lobe (is not fully metallic).
+    pub diffuse: bool,
+    /// Some surface has a GGX lobe (metallic, or specular > 0).
+    pub ggx: bool,
+    /// Some surface is metallic.
+    pub metallic: bool,
+    /// Emitting surface materials and their triangles (lamps excluded).
+    pub emitters: usize,
+    pub emitter_triangles: usize,
+    /// Area lights (lamp materials) and their triangles.
+    pub lamps: usize,
+    pub lamp_triangles: usize,
+    pub punctual: usize,
+    /// The World is not black.
+    pub background: bool,
+    /// Some emitter emits from its front face only.
+    pub one_sided_emission: bool,
+    /// Materials that reference textures (not rendered yet).
+    pub textured_materials: usize,
+}
+
+impl Features {
+    /// Look at every triangle's material once.
+    pub fn of(scene: &Scene) -> Self {
+        let mut used = vec![0usize; scene.materials.len()];
+        for t in &scene.triangles {
+            if let Some(n) = used.get_mut(t.material as usize) {
+                *n += 1;
+            }
+        }
+        let mut f = Features {
+            punctual: scene.punctual.len(),
+            background: scene.background != Vec3::ZERO,
+            textured_materials: scene.textured_materials,
+            ..Features::default()
+        };
+        for (m, &count) in scene.materials.iter().zip(&used).filter(|(_, &n)| n > 0) {
+            if m.is_emissive() {
+                if m.lamp {
+                    f.lamps += 1;
+                    f.lamp_triangles += count;
+                } else {
+                    f.emitters += 1;
+                    f.emitter_triangles += count;
+                }
+                f.one_sided_emission |= !m.double_sided;
+            }
+            if m.lamp {
+                continue;
+            }
+            f.diffuse |= m.metallic < 1.0;
+            f.ggx |= !m.is_pure_lambert();
+            f.metallic |= m.metallic > 0.0;
+        }
+        f
+    }
+
+    pub fn any_light(&self) -> bool {
+        self.emitter_triangles + self.lamp_triangles + self.punctual > 0
+    }
+}
+
+impl fmt::Display for Features {
+    fn fmt(&self, out: &mut fmt::Formatter) -> fmt::Result {
+        let flags = [(self.diffuse, "diffuse"), (self.ggx, "ggx"), (self.metallic, "metallic")];
+        let mut on: Vec<String> = flags.iter().filter(|(b, _)| *b).map(|(_, n)| n.to_string()).collect();
+        if self.emitters > 0 {
+            on.push(format!("emitters={} ({} tris)", self.emitters, self.emitter_triangles));
+        }
+        if self.lamps > 0 {
+            on.push(format!("area lights={} ({} tris)", self.lamps, self.lamp_triangles));
+        }
+        if self.punctual > 0 {
+            on.push(format!("punctual={}", self.punctual));
+        }
+        if self.background {
+            on.push("background".into());
+        }
+        if self.one_sided_emission {
+            on.push("one-sided emission".into());
+        }
+        if self.textured_materials > 0 {
+            on.push(format!("textures in {} material(s), not rendered", self.textured_materials));
+        }
+        if on.is_empty() {
+            on.push("nothing".into());
+        }
+        write!(out, "{}", on.join(", "))
+    }
+}
+
+/// The BSDF code a kernel runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KernelBsdf {
+    Lambert,
+    Principled,
+    Seed,
+}
+
+/// One compiled kernel: its BSDF and which light parts it has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Kernel {
+    pub bsdf: KernelBsdf,
+    /// Emitting triangles: emission at hits, area-light sampling.
+    pub area: bool,
+    pub punctual: bool,
+    /// Rays are tested against the lamp BVH.
+    pub lamps: bool,
+}
+
+impl Kernel {
+    pub fn choose(features: &Features, lights: &Lights, model: BsdfModel, mode: FeatureMode) -> Self {
+        let general = match model {
+            BsdfModel::Principled => KernelBsdf::Principled,
+            BsdfModel::Seed => KernelBsdf::Seed,
+        };
+        if mode == FeatureMode::All {
+            return Kernel { bsdf: general, area: true, punctual: true, lamps: true };
+        }
+        // Both models are exactly Lambert for a non-metal with specular 0.
+        let bsdf = if features.ggx { general } else { KernelBsdf::Lambert };
+        // The light list decides, not the materials: an emissive triangle
+        // of zero power is not sampled and adds nothing.
+        let area = !lights.triangles.is_empty();
+        Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0 }
+    }
+}
+
+impl fmt::Display for Kernel {
+    fn fmt(&self, out: &mut fmt::Formatter) -> fmt::Result {
+        let bsdf = match self.bsdf {
+            KernelBsdf::Lambert => "lambert",
+            KernelBsdf::Principled => "principled",
+            KernelBsdf::Seed => "seed",
+        };
+        let mut parts = vec![bsdf];
+        if self.area {
+            parts.push("emitters");
+        }
+        if self.lamps {
+            parts.push("lamps");
+        }
+        if self.punctual {
+            parts.push("punctual");
+        }
+        if !self.area && !self.punctual {
+            parts.push("no light sampling");
+        }
+        write!(out, "{}", parts.join(" + "))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Camera;
+    use crate::material::Material;
+    use crate::scene::Triangle;
+
+    fn scene(materials: Vec<Material>) -> Scene {
+        let tri = |material: u32| Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], n: [Vec3::Z; 3], material };
+        let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
+        let triangles = (0..materials.len() as u32).map(tri).collect();
+        Scene::new(triangles, materials, camera)
+    }
+
+    fn lambert(le: f32) -> Material {
+        Material { metallic: 0.0, specular: 0.0, emission: Vec3::splat(le), ..Material::default() }
+    }
+
+    #[test]
+    fn a_diffuse_scene_gets_the_lambert_kernel() {
+        let s = scene(vec![lambert(0.0), lambert(5.0)]);
+        let f = Features::of(&s);
+        assert!(f.diffuse && !f.ggx && !f.metallic);
+        assert_eq!((f.emitters, f.emitter_triangles), (1, 1));
+        let lights = Lights::new(&s);
+        let k = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::Auto);
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: false });
+        assert_eq!(f.to_string(), "diffuse, emitters=1 (1 tris), one-sided emission");
+        let all = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::All);
+        assert_eq!(all, Kernel { bsdf: KernelBsdf::Principled, area: true, punctual: true, lamps: true });
+    }
+
+    #[test]
+    fn unused_and_lamp_materials_do_not_count() {
+        let lamp = Material { lamp: true, emission: Vec3::ONE, ..Material::default() };
+        let mut s = scene(vec![lambert(0.0), lamp, Material::default()]);
+        s.triangles.pop(); // the metallic default material is left unused
+        let f = Features::of(&s);
+        assert!(!f.ggx && !f.metallic, "{f:?}");
+        assert_eq!((f.lamps, f.emitters), (1, 0));
+        let k = Kernel::choose(&f, &Lights::new(&s), BsdfModel::Seed, FeatureMode::Auto);
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: true });
+    }
+
+    #[test]
+    fn a_scene_without_light_samples_none() {
+        let s = scene(vec![Material::default()]);
+        let f = Features::of(&s);
+        assert!(f.ggx && f.metallic && !f.diffuse && !f.any_light());
+        let k = Kernel::choose(&f, &Lights::new(&s), BsdfModel::Principled, FeatureMode::Auto);
+        assert_eq!(k.to_string(), "principled + no light sampling");
+    }
+}
