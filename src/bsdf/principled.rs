@@ -64,11 +64,21 @@ impl PrincipledBsdf {
         } else {
             let t = tables();
             let (e, e_avg) = (t.e(mu, roughness), t.e_avg(roughness));
-            (ms_scale(e, e_avg, schlick_average(base)), ms_scale(e, e_avg, Vec3::splat(t.dielectric_f_avg)).x, t.e_layer(mu, roughness))
+            let s_dielectric = ms_scale(e, e_avg, Vec3::splat(t.dielectric_f_avg)).x;
+            let layer = t.e_layer(mu, roughness);
+            if m.multiscatter {
+                (ms_scale(e, e_avg, schlick_average(base)), s_dielectric, layer)
+            } else {
+                // Plain GGX: the lobes lose what single scattering loses,
+                // but Cycles weights the base below by the albedo its
+                // layering table holds for both distributions
+                // (bsdf_microfacet_estimate_albedo): the lobe scaled to a
+                // white albedo of 1, each bounce Fresnel-weighted. That is
+                // the compensated albedo undarkened, E_layer / (S·E) — a
+                // plain-GGX dielectric is darker than a multiscatter one.
+                (Vec3::ONE, 1.0, layer / (s_dielectric * e).max(f32::MIN_POSITIVE))
+            }
         };
-        // Plain GGX: no compensation, and a layer that reflects only its
-        // single scattering (the table holds the compensated albedo).
-        let (s_metal, s_dielectric, layer) = if m.multiscatter { (s_metal, s_dielectric, layer) } else { (Vec3::ONE, 1.0, layer / s_dielectric) };
         let diffuse_weight = (1.0 - metallic) * (1.0 - specular * layer).max(0.0);
         // Lobe choice by expected reflectance at this wo: the metal's ≈ its
         // average Fresnel, the dielectric layer's E_layer. As in the seed

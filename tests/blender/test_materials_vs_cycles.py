@@ -65,58 +65,60 @@ def tiles(img):
         return (img * m).reshape(shape).sum(axis=(1, 3)) / n, n
 
 
-def tile_noise(a, b):
-    """Standard error of the tile means of (a + b)/2, from a − b."""
-    var, n = tiles((a - b) ** 2 / 2)
-    return np.sqrt(var / (2 * n))
+def tile_noise(images):
+    """Standard error of the tile means of the mean of `images` (independent
+    renders with different seeds), from their per-pixel sample variance."""
+    var, n = tiles(np.var(np.stack(images), axis=0, ddof=1))
+    return np.sqrt(var / (len(images) * n))
 
 
-def compare(scene, tmp_path, samples):
+def compare(scene, tmp_path, samples, replicates=2):
     fair_cycles(scene, samples, BOUNCES, seed=1)
-    c1 = render(scene, tmp_path / "c1.exr")
-    scene.cycles.seed = 2
-    c2 = render(scene, tmp_path / "c2.exr")
+    cycles = []
+    for seed in range(1, replicates + 1):
+        scene.cycles.seed = seed
+        cycles.append(render(scene, tmp_path / f"c{seed}.exr"))
     scene.render.engine = "GLINT"
     scene.glint.samples, scene.glint.max_bounces = samples, BOUNCES
-    scene.glint.seed = 1
-    g1 = render(scene, tmp_path / "g1.exr")
-    scene.glint.seed = 2
-    g2 = render(scene, tmp_path / "g2.exr")
-    (c, n), (g, _) = tiles((c1 + c2) / 2), tiles((g1 + g2) / 2)
-    se = np.sqrt(tile_noise(c1, c2) ** 2 + tile_noise(g1, g2) ** 2)
+    glint = []
+    for seed in range(1, replicates + 1):
+        scene.glint.seed = seed
+        glint.append(render(scene, tmp_path / f"g{seed}.exr"))
+    (c, n), (g, _) = tiles(np.mean(cycles, axis=0)), tiles(np.mean(glint, axis=0))
+    se = np.sqrt(tile_noise(cycles) ** 2 + tile_noise(glint) ** 2)
     keep = n >= 8  # tiles with at least 8 interior pixels
     z = np.abs(c - g)[keep] / np.maximum(se[keep], 1e-9)
     bias = (g[keep]).sum(axis=0) / (c[keep]).sum(axis=0) - 1
     # Where no sphere is, both renderers see the World exactly.
     outside = ~np.pad(MASK, 0) & (np.hypot(*(np.mgrid[0:SIZE, 0:SIZE] + 0.5 - SIZE / 2)) > f_outline() + 1.5)
-    assert np.allclose(c1[outside], g1[outside], rtol=1e-5), "the World differs"
+    assert np.allclose(cycles[0][outside], glint[0][outside], rtol=1e-5), "the World differs"
     return z, bias, c, g
 
 
-# Metal at roughness 0.05 is left out: its highlight tile (the key light
-# seen in a near-mirror) came out −1% to +2.7% from Cycles depending on the
-# sample count, far outside the two-seed noise estimate, which cannot judge
-# such heavy-tailed noise. It needs a replicate-based estimate (open).
+# Metal at roughness 0.05 is left out: with 16 seeds a side (compare's
+# `replicates`), every tile that reflects the World agrees within 0.04%, but
+# the tile holding the key light's reflection is 0.95% brighter than Cycles
+# (10 σ), and a triangulated sphere changes nothing. The cause is open.
 CASES = [(1.0, 0.2), (1.0, 0.5), (1.0, 1.0), (0.0, 0.05), (0.0, 0.2), (0.0, 0.5), (0.0, 1.0)]
 
 
-# A dielectric set to plain GGX is left out: Glint came out 2.75% brighter
-# than Cycles at roughness 1 (26 σ), so Cycles' layering for plain GGX is not
-# yet what Glint does (open).
-@pytest.mark.parametrize("metallic", [1.0])
-def test_plain_ggx_is_passed_through_and_matches_cycles(empty_scene, tmp_path, metallic):
+# A plain-GGX dielectric came out 2.75% brighter than Cycles (26 σ) while
+# Glint weighted its base by the single-scattering albedo; Cycles weights it
+# by the compensated one for both distributions (principled.rs).
+@pytest.mark.parametrize("metallic, roughness", [(1.0, 1.0), (0.0, 1.0), (0.0, 0.5), (0.0, 0.2)])
+def test_plain_ggx_is_passed_through_and_matches_cycles(empty_scene, tmp_path, metallic, roughness):
     """A Principled node set to "GGX" (no multiple-scattering compensation):
     at roughness 1 a metal loses a third of its light, so a model that
     ignored the setting would be far off."""
     base = (0.9, 0.6, 0.2) if metallic else (0.8, 0.3, 0.1)
-    sphere_scene(empty_scene, metallic, 1.0, base, distribution="GGX")
+    sphere_scene(empty_scene, metallic, roughness, base, distribution="GGX")
     z, bias, _, _ = compare(empty_scene, tmp_path, 64)
     import json
 
     from glint import daemon
 
     assert json.loads(open(daemon.current().path("request.json")).read())["single_scatter_materials"] == ["M"]
-    print(f"plain GGX, metallic {metallic}: bias against Cycles {bias * 100:.2f} %, worst tile {z.max():.1f} σ")
+    print(f"plain GGX, metallic {metallic} roughness {roughness}: bias against Cycles {bias * 100:.2f} %, worst tile {z.max():.1f} σ")
     assert z.max() < 5.0, (z.max(), bias)
 
 
