@@ -83,9 +83,8 @@ fn child(scene: &Path) -> anyhow::Result<()> {
     let (ctx, _) = Context::new(&job.scene);
     let mut film = Film::new(64, 64);
     render_pass(&ctx, &job.settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}).expect("not cancelled");
-    let status = std::fs::read_to_string("/proc/self/status")?;
-    let hwm = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap_or("VmHWM: 0 kB");
-    println!("{} {}", job.scene.triangles.len(), hwm.split_whitespace().nth(1).unwrap_or("0"));
+    let kib = glint::memory::peak_rss_kib().ok_or_else(|| anyhow::anyhow!("this OS does not report peak memory"))?;
+    println!("{} {kib}", job.scene.triangles.len());
     Ok(())
 }
 
@@ -120,7 +119,7 @@ fn write_glb(path: &PathBuf, doc: &Value, unused: usize) -> anyhow::Result<()> {
     let uri = doc["buffers"][0]["uri"].as_str().unwrap_or_default();
     let mut bin = base64::engine::general_purpose::STANDARD.decode(uri.split_once(',').map_or("", |(_, b)| b))?;
     if unused > 0 {
-        let mut view = |bytes: usize, bin: &mut Vec<u8>, doc: &mut Value| {
+        let view = |bytes: usize, bin: &mut Vec<u8>, doc: &mut Value| {
             while bin.len() % 4 != 0 {
                 bin.push(0);
             }

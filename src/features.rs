@@ -97,10 +97,6 @@ impl Features {
         }
         f
     }
-
-    pub fn any_light(&self) -> bool {
-        self.emitter_triangles + self.lamp_triangles + self.punctual > 0
-    }
 }
 
 impl fmt::Display for Features {
@@ -147,7 +143,8 @@ pub struct Kernel {
     /// Emitting triangles: emission at hits, area-light sampling.
     pub area: bool,
     pub punctual: bool,
-    /// Rays are tested against the lamp BVH.
+    /// Rays are tested against the lamp BVH; only with `area` (lamps are
+    /// emitting triangles).
     pub lamps: bool,
 }
 
@@ -241,7 +238,8 @@ mod tests {
     fn a_scene_without_light_samples_none() {
         let s = scene(vec![Material::default()]);
         let f = Features::of(&s);
-        assert!(f.ggx && f.metallic && !f.diffuse && !f.any_light());
+        assert!(f.ggx && f.metallic && !f.diffuse);
+        assert_eq!((f.emitter_triangles, f.lamp_triangles, f.punctual), (0, 0, 0));
         let k = Kernel::choose(&f, &Lights::new(&s), BsdfModel::Principled, FeatureMode::Auto);
         assert_eq!(k.to_string(), "principled + no light sampling");
     }

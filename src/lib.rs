@@ -8,6 +8,7 @@ pub mod job;
 pub mod lamps;
 pub mod lights;
 pub mod loader;
+pub mod memory;
 pub mod material;
 pub mod output;
 pub mod progressive;

@@ -232,7 +232,7 @@ fn render(args: RenderArgs) -> Result<()> {
         eprintln!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
         eprintln!("time: {:.4} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
         eprintln!("discarded non-finite samples: {}", stats.discarded);
-        if let Some(kib) = peak_rss_kib() {
+        if let Some(kib) = glint::memory::peak_rss_kib() {
             eprintln!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);
         }
     }
@@ -263,11 +263,4 @@ fn write_outputs(exr: &Path, png: Option<&Path>, width: u32, height: u32, pixels
         output::write_png(png, width, height, pixels)?;
     }
     Ok(())
-}
-
-/// The process's peak resident set (VmHWM), where the OS reports it.
-fn peak_rss_kib() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    line.split_whitespace().nth(1)?.parse().ok()
 }

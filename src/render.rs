@@ -94,17 +94,21 @@ pub fn render_pass(
     // One monomorphised kernel per BSDF and set of light parts: the choice
     // is made once a pass, never per sample.
     let kernel = ctx.kernel(settings);
+    macro_rules! run {
+        ($b:ty, $area:literal, $punctual:literal, $lamps:literal) => {
+            render_pass_with::<$b, $area, $punctual, $lamps>(ctx, settings, film, samples, cancel, progress)
+        };
+    }
+    // Lamps are emitting triangles, so a kernel has them only with `area`.
     macro_rules! lights {
         ($b:ty) => {
             match (kernel.area, kernel.punctual, kernel.lamps) {
-                (false, false, false) => render_pass_with::<$b, false, false, false>(ctx, settings, film, samples, cancel, progress),
-                (false, false, true) => render_pass_with::<$b, false, false, true>(ctx, settings, film, samples, cancel, progress),
-                (false, true, false) => render_pass_with::<$b, false, true, false>(ctx, settings, film, samples, cancel, progress),
-                (false, true, true) => render_pass_with::<$b, false, true, true>(ctx, settings, film, samples, cancel, progress),
-                (true, false, false) => render_pass_with::<$b, true, false, false>(ctx, settings, film, samples, cancel, progress),
-                (true, false, true) => render_pass_with::<$b, true, false, true>(ctx, settings, film, samples, cancel, progress),
-                (true, true, false) => render_pass_with::<$b, true, true, false>(ctx, settings, film, samples, cancel, progress),
-                (true, true, true) => render_pass_with::<$b, true, true, true>(ctx, settings, film, samples, cancel, progress),
+                (false, false, _) => run!($b, false, false, false),
+                (false, true, _) => run!($b, false, true, false),
+                (true, false, false) => run!($b, true, false, false),
+                (true, false, true) => run!($b, true, false, true),
+                (true, true, false) => run!($b, true, true, false),
+                (true, true, true) => run!($b, true, true, true),
             }
         };
     }

@@ -29,8 +29,8 @@ enum Loaded<'a> {
     Bytes(Vec<u8>),
     /// Part of a GLB held in memory.
     Slice(&'a [u8]),
-    /// `len` bytes of a file from `start`, read a bufferView at a time.
-    File { file: Arc<File>, start: u64, len: u64 },
+    /// Part of a file from `start`, read a bufferView at a time.
+    File { file: Arc<File>, start: u64 },
 }
 
 /// Buffers, resolved on first use so unreferenced ones are never read; a
@@ -58,15 +58,16 @@ impl<'a> Buffers<'a> {
         }
     }
 
-    /// Resolve buffer `index` and check its length, without reading a file.
-    pub fn get(&mut self, index: usize) -> Result<(), String> {
+    /// Resolve buffer `index` and check its length, without reading a
+    /// file; the buffer's byteLength.
+    pub fn get(&mut self, index: usize) -> Result<u64, String> {
         let buffer = self.root.buffers.get(index).ok_or_else(|| format!("buffer {index} does not exist"))?;
         let len = buffer.byte_length.0;
         if len > buffers::MAX_BUFFER_BYTES {
             return Err(format!("buffer {index} byteLength {len} is larger than Glint reads"));
         }
         if self.loaded[index].is_some() {
-            return Ok(());
+            return Ok(len);
         }
         let loaded = match buffer.uri.as_deref() {
             None => {
@@ -83,7 +84,7 @@ impl<'a> Buffers<'a> {
                 }
                 match bin {
                     BinChunk::Memory(b) => Loaded::Slice(&b[..len as usize]),
-                    BinChunk::File(file, range) => Loaded::File { file, start: range.start, len },
+                    BinChunk::File(file, range) => Loaded::File { file, start: range.start },
                 }
             }
             Some(uri) => match buffers::decode_data_uri(uri) {
@@ -100,12 +101,12 @@ impl<'a> Buffers<'a> {
                     let base = self.base_dir.ok_or_else(|| format!("buffer {index}: external file '{uri}' but the scene has no folder"))?;
                     let path = buffers::resolve_relative(uri, base).map_err(|e| format!("buffer {index}: {e}"))?;
                     let file = buffers::open_at_least(&path, len).map_err(|e| format!("buffer {index}: {e}"))?;
-                    Loaded::File { file: Arc::new(file), start: 0, len }
+                    Loaded::File { file: Arc::new(file), start: 0 }
                 }
             },
         };
         self.loaded[index] = Some(loaded);
-        Ok(())
+        Ok(len)
     }
 
     /// The bytes of a buffer view, checked against its buffer.
@@ -116,13 +117,7 @@ impl<'a> Buffers<'a> {
         let end = offset.checked_add(view.byte_length.0).ok_or_else(|| format!("bufferView {index} range overflows"))?;
         let stride = view.byte_stride.map(|s| s.0);
         let buffer = view.buffer.value();
-        self.get(buffer)?;
-        let buffer_len = match &self.loaded[buffer] {
-            Some(Loaded::Bytes(b)) => b.len() as u64,
-            Some(Loaded::Slice(b)) => b.len() as u64,
-            Some(Loaded::File { len, .. }) => *len,
-            None => 0,
-        };
+        let buffer_len = self.get(buffer)?;
         if end > buffer_len {
             return Err(format!("bufferView {index} (bytes {offset}..{end}) runs past its buffer ({buffer_len} bytes)"));
         }
@@ -130,7 +125,7 @@ impl<'a> Buffers<'a> {
         let data: &[u8] = match &self.loaded[buffer] {
             Some(Loaded::Bytes(b)) => &b[offset..end],
             Some(Loaded::Slice(b)) => &b[offset..end],
-            Some(Loaded::File { file, start, .. }) => {
+            Some(Loaded::File { file, start }) => {
                 if self.views[index].is_none() {
                     let bytes = buffers::read_range(file, start + offset as u64, end - offset).map_err(|e| format!("bufferView {index}: {e}"))?;
                     if bytes.len() < end - offset {

@@ -79,10 +79,12 @@ pub fn parse(bytes: &[u8]) -> Result<Layout, String> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn glb(json: &[u8], bin: Option<&[u8]>, claimed: Option<u32>) -> Vec<u8> {
+    /// A GLB file of `json` and `bin`, its header claiming `claimed` bytes
+    /// (default: the true length).
+    pub(in crate::loader) fn glb(json: &[u8], bin: Option<&[u8]>, claimed: Option<u32>) -> Vec<u8> {
         let mut out = Vec::new();
         let pad = |v: &mut Vec<u8>, fill: u8| while v.len() % 4 != 0 { v.push(fill) };
         let mut j = json.to_vec();

@@ -374,25 +374,7 @@ fn glb_with_bin_chunk_and_external_files() {
 }
 
 fn glb_file(doc: &Value, bin: &[u8]) -> Vec<u8> {
-    let mut json_bytes = doc.to_string().into_bytes();
-    while json_bytes.len() % 4 != 0 {
-        json_bytes.push(b' ');
-    }
-    let mut bin = bin.to_vec();
-    while bin.len() % 4 != 0 {
-        bin.push(0);
-    }
-    let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
-    let mut glb = b"glTF".to_vec();
-    glb.extend(2u32.to_le_bytes());
-    glb.extend((total as u32).to_le_bytes());
-    glb.extend((json_bytes.len() as u32).to_le_bytes());
-    glb.extend(0x4E4F_534Au32.to_le_bytes());
-    glb.extend(&json_bytes);
-    glb.extend((bin.len() as u32).to_le_bytes());
-    glb.extend(0x004E_4942u32.to_le_bytes());
-    glb.extend(&bin);
-    glb
+    glb::tests::glb(doc.to_string().as_bytes(), Some(bin), None)
 }
 
 /// A file's buffer that also holds data no node references (here 4 MB

@@ -63,3 +63,28 @@ def plain_world(scene, colour, strength=1.0):
     background.inputs["Strength"].default_value = strength
     scene.world = world
     return world
+
+
+def render_rgb(path):
+    """Render the active scene (F12), save the result to `path` and read it
+    back as a (height, width, 3) float64 array."""
+    bpy.ops.render.render()
+    bpy.data.images["Render Result"].save_render(str(path))
+    return read_exr(path)[..., :3].astype(np.float64)
+
+
+def render_seeds(scene, tmp_path, samples, bounces, seeds):
+    """The scene rendered with seeds 1…`seeds` by Cycles (set fair) and then
+    by Glint (through the add-on): two lists of RGB arrays."""
+    fair_cycles(scene, samples, bounces)
+    cycles = []
+    for seed in range(1, seeds + 1):
+        scene.cycles.seed = seed
+        cycles.append(render_rgb(tmp_path / f"c{seed}.exr"))
+    scene.render.engine = "GLINT"
+    scene.glint.samples, scene.glint.max_bounces = samples, bounces
+    glint = []
+    for seed in range(1, seeds + 1):
+        scene.glint.seed = seed
+        glint.append(render_rgb(tmp_path / f"g{seed}.exr"))
+    return cycles, glint

@@ -9,7 +9,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from helpers import add_camera, fair_cycles, give_principled, plain_world, read_exr
+from helpers import add_camera, give_principled, plain_world, render_seeds
 
 SIZE, TILE = 32, 8
 BOUNCES = 4
@@ -30,12 +30,6 @@ def sphere_scene(scene, metallic, roughness, base, distribution="MULTI_GGX"):
     add_camera(scene, (0, -4.5, 0), (math.radians(90), 0, 0), lens=60)
     scene.render.resolution_x = scene.render.resolution_y = SIZE
     scene.view_settings.view_transform = "Standard"
-
-
-def render(scene, path):
-    bpy.ops.render.render()
-    bpy.data.images["Render Result"].save_render(str(path))
-    return read_exr(path)[..., :3].astype(np.float64)
 
 
 def interior_mask():
@@ -73,17 +67,7 @@ def tile_noise(images):
 
 
 def compare(scene, tmp_path, samples, replicates=2):
-    fair_cycles(scene, samples, BOUNCES, seed=1)
-    cycles = []
-    for seed in range(1, replicates + 1):
-        scene.cycles.seed = seed
-        cycles.append(render(scene, tmp_path / f"c{seed}.exr"))
-    scene.render.engine = "GLINT"
-    scene.glint.samples, scene.glint.max_bounces = samples, BOUNCES
-    glint = []
-    for seed in range(1, replicates + 1):
-        scene.glint.seed = seed
-        glint.append(render(scene, tmp_path / f"g{seed}.exr"))
+    cycles, glint = render_seeds(scene, tmp_path, samples, BOUNCES, replicates)
     (c, n), (g, _) = tiles(np.mean(cycles, axis=0)), tiles(np.mean(glint, axis=0))
     se = np.sqrt(tile_noise(cycles) ** 2 + tile_noise(glint) ** 2)
     keep = n >= 8  # tiles with at least 8 interior pixels
