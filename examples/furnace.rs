@@ -5,10 +5,10 @@
 //! `cargo run --release --example furnace`
 use glam::Vec3;
 use glint::bsdf::{Bsdf, PrincipledBsdf, SeedBsdf};
-use glint::material::Material;
+use glint::material::{Material, Surface};
 use glint::rng::Rng;
 
-fn albedo<B: Bsdf>(m: &Material, deg: f32) -> f64 {
+fn albedo<B: Bsdf>(m: &Surface, deg: f32) -> f64 {
     let t = deg.to_radians();
     let wo = Vec3::new(t.sin(), 0.0, t.cos());
     let bsdf = B::new(m, wo);
@@ -28,7 +28,7 @@ fn table<B: Bsdf>(model: &str) {
     for (name, metallic) in [("white metal", 1.0f32), ("white dielectric", 0.0)] {
         println!("--bsdf {model}, {name}: albedo at θo = {angles:?}°");
         for roughness in [0.0f32, 1e-4, 1e-3, 0.01, 0.05, 0.1, 0.3, 0.5, 0.7, 1.0] {
-            let m = Material { base_color: Vec3::ONE, metallic, roughness, ..Material::default() };
+            let m = Material { base_color: Vec3::ONE, metallic, roughness, ..Material::default() }.surface();
             let row: Vec<String> = angles.iter().map(|&deg| format!("{:.3}", albedo::<B>(&m, deg))).collect();
             println!("  roughness {roughness:<6}: {}", row.join("  "));
         }

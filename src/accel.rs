@@ -130,7 +130,15 @@ impl Accel {
     }
 
     /// Closest hit along a unit-direction ray within (0, tmax).
+    #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        self.intersect_where(origin, dir, tmax, |_, _, _| true)
+    }
+
+    /// Closest hit that `stops(triangle, b1, b2)` accepts: surfaces with
+    /// alpha let some rays through, decided as the traversal meets them.
+    #[inline]
+    pub fn intersect_where(&self, origin: Vec3, dir: Vec3, tmax: f32, mut stops: impl FnMut(u32, f32, f32) -> bool) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let tr = TraversalRay::new(origin, dir, tmax);
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
@@ -140,11 +148,11 @@ impl Accel {
             // closest survives; obvhs gets its distance along the moved ray.
             let limit = best.map_or(tmax, |b| b.t);
             match intersect(&self.tris[id], o, d, 0.0, limit) {
-                Some((t, b1, b2)) => {
+                Some((t, b1, b2)) if stops(self.ids[id], b1, b2) => {
                     best = Some(Hit { t, triangle: self.ids[id], b1, b2 });
                     t + tr.shift
                 }
-                None => f32::INFINITY,
+                _ => f32::INFINITY,
             }
         });
         best
@@ -159,7 +167,14 @@ impl Accel {
     /// point on an emitter need not stop short of that emitter by a guessed
     /// epsilon (which lets walls closer than it leak light) — a flat
     /// triangle cannot shadow its own points.
+    #[inline]
     pub fn occluded_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> bool {
+        self.occluded_except_where(origin, dir, tmax, skip, |_, _, _| true)
+    }
+
+    /// `occluded_except`, counting only hits that `stops` accepts.
+    #[inline]
+    pub fn occluded_except_where(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32, mut stops: impl FnMut(u32, f32, f32) -> bool) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let tr = TraversalRay::new(origin, dir, tmax);
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
@@ -167,7 +182,10 @@ impl Accel {
             if self.ids[id] == skip {
                 return f32::INFINITY;
             }
-            intersect(&self.tris[id], o, d, 0.0, tmax).map_or(f32::INFINITY, |h| h.0 + tr.shift)
+            match intersect(&self.tris[id], o, d, 0.0, tmax) {
+                Some((t, b1, b2)) if stops(self.ids[id], b1, b2) => t + tr.shift,
+                _ => f32::INFINITY,
+            }
         })
     }
 

@@ -33,6 +33,26 @@ impl Camera {
         Ok(Camera { name, position, right, up, forward, yfov, aspect_ratio })
     }
 
+    /// `--camera auto`: a camera that frames a bounding box, for scenes
+    /// without one. It looks at the box's centre from the front (+Z, glTF's
+    /// forward-facing side), a little above and to the right, far enough
+    /// that the box's bounding sphere fits the vertical field of view.
+    pub fn framing(min: Vec3, max: Vec3) -> Result<Self, String> {
+        /// Blender's default camera: a 50 mm lens on a 36 mm sensor, ≈ 39.6°.
+        const YFOV: f32 = 0.691;
+        if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+            return Err("--camera auto: the scene has no geometry to frame".into());
+        }
+        let centre = 0.5 * (min + max);
+        // A flat or point-like scene still needs a distance.
+        let radius = (0.5 * (max - min).length()).max(1e-3 * centre.abs().max_element()).max(f32::MIN_POSITIVE.sqrt());
+        let view = Vec3::new(0.5, 0.4, 1.0).normalize();
+        let position = centre + view * (radius / (0.5 * YFOV).sin());
+        let right = Vec3::Y.cross(view).normalize();
+        let world = Mat4::from_cols(right.extend(0.0), view.cross(right).extend(0.0), view.extend(0.0), position.extend(1.0));
+        Camera::from_world("auto".into(), &world, YFOV, None)
+    }
+
     /// A primary ray through a point on the image plane given in pixels
     /// (x right, y down, continuous: the pixel (i, j) spans [i, i+1)×[j, j+1)).
     pub fn ray(&self, pixel: Vec2, width: u32, height: u32) -> (Vec3, Vec3) {

@@ -18,8 +18,10 @@
 //! model's full code) for comparison: for the same seed it gives the same
 //! image, bit for bit.
 //!
-//! Textures are not rendered yet, so no kernel interpolates UVs; a scene
-//! that references them says so in its features line.
+//! Textures, vertex colours, normal maps and alpha are decided per
+//! material at the hit (shading.rs): a material without them takes its
+//! factors in one branch, and a scene with no alpha anywhere traces its
+//! rays without the any-hit test.
 
 use crate::bsdf::BsdfModel;
 use crate::lights::Lights;
@@ -58,8 +60,15 @@ pub struct Features {
     pub background: bool,
     /// Some emitter emits from its front face only.
     pub one_sided_emission: bool,
-    /// Materials that reference textures (not rendered yet).
+    /// Materials with textures, and the images they share.
     pub textured_materials: usize,
+    pub images: usize,
+    /// Materials with a normal map.
+    pub normal_maps: usize,
+    /// Some primitive has COLOR_0.
+    pub vertex_colors: bool,
+    /// Materials with alphaMode MASK or BLEND: rays test them as they pass.
+    pub alpha: usize,
 }
 
 impl Features {
@@ -74,7 +83,8 @@ impl Features {
         let mut f = Features {
             punctual: scene.punctual.len(),
             background: scene.background != Vec3::ZERO,
-            textured_materials: scene.textured_materials,
+            images: scene.images.len(),
+            vertex_colors: !scene.attributes.color.is_empty(),
             ..Features::default()
         };
         for (m, &count) in scene.materials.iter().zip(&used).filter(|(_, &n)| n > 0) {
@@ -91,6 +101,11 @@ impl Features {
             if m.lamp {
                 continue;
             }
+            if let Some(t) = &m.textures {
+                f.textured_materials += 1;
+                f.normal_maps += t.normal.is_some() as usize;
+            }
+            f.alpha += m.has_alpha() as usize;
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
@@ -119,7 +134,16 @@ impl fmt::Display for Features {
             on.push("one-sided emission".into());
         }
         if self.textured_materials > 0 {
-            on.push(format!("textures in {} material(s), not rendered", self.textured_materials));
+            on.push(format!("textures ({} materials, {} images)", self.textured_materials, self.images));
+        }
+        if self.normal_maps > 0 {
+            on.push(format!("normal maps={}", self.normal_maps));
+        }
+        if self.vertex_colors {
+            on.push("vertex colours".into());
+        }
+        if self.alpha > 0 {
+            on.push(format!("alpha={}", self.alpha));
         }
         if on.is_empty() {
             on.push("nothing".into());

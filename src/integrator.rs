@@ -29,11 +29,12 @@ use crate::bsdf::Bsdf;
 use crate::features::{Features, Kernel};
 use crate::lights::{LightChoice, LightSample, Lights};
 use crate::punctual::PunctualLight;
-use crate::material::Material;
+use crate::material::{Material, Surface};
 use crate::render::RenderSettings;
 use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::scene::Scene;
+use crate::shading::{self, Barycentric};
 use glam::Vec3;
 
 pub const RR_START_DEPTH: u32 = 3;
@@ -70,6 +71,26 @@ impl<'a> Context<'a> {
     /// The line every render starts with: what the scene uses, what runs.
     pub fn features_line(&self, settings: &RenderSettings) -> String {
         format!("features: {}; kernel: {}", self.features, self.kernel(settings))
+    }
+
+    /// The closest surface a ray stops at: with alpha in the scene, a
+    /// surface it passes through (MASK, BLEND; shading.rs) is skipped as the
+    /// traversal meets it.
+    #[inline]
+    fn intersect(&self, o: Vec3, d: Vec3, rng: &mut Rng) -> Option<Hit> {
+        if self.features.alpha == 0 {
+            return self.accel.intersect(o, d, f32::INFINITY);
+        }
+        self.accel.intersect_where(o, d, f32::INFINITY, |t, b1, b2| shading::stops_ray(self.scene, t, b1, b2, &mut || rng.next_f32()))
+    }
+
+    /// Whether a shadow ray is blocked, not counting triangle `skip`.
+    #[inline]
+    fn occluded(&self, o: Vec3, d: Vec3, tmax: f32, skip: u32, rng: &mut Rng) -> bool {
+        if self.features.alpha == 0 {
+            return self.accel.occluded_except(o, d, tmax, skip);
+        }
+        self.accel.occluded_except_where(o, d, tmax, skip, |t, b1, b2| shading::stops_ray(self.scene, t, b1, b2, &mut || rng.next_f32()))
     }
 }
 
@@ -134,17 +155,26 @@ pub struct SurfaceHit {
     /// Whether the ray hit the triangle's front (counter-clockwise) face.
     pub front_face: bool,
     pub material: u32,
+    pub triangle: u32,
+    pub b: Barycentric,
+    /// The material here, textures applied.
+    pub surface: Surface,
 }
 
 impl SurfaceHit {
     pub fn new(scene: &Scene, hit: &Hit, dir: Vec3) -> Self {
         let tri = &scene.triangles[hit.triangle as usize];
+        let material = &scene.materials[tri.material as usize];
+        let b = Barycentric::new(hit.b1, hit.b2);
         let (p, p_error) = point_on_triangle(&tri.p, hit.b1, hit.b2);
         let face = tri.cross().normalize();
         let front_face = face.dot(dir) < 0.0;
         let ng = if front_face { face } else { -face };
         let b0 = 1.0 - hit.b1 - hit.b2;
         let mut ns = (tri.n[0] * b0 + tri.n[1] * hit.b1 + tri.n[2] * hit.b2).normalize_or_zero();
+        if ns != Vec3::ZERO {
+            ns = shading::mapped_normal(scene, material, hit.triangle, b, ns);
+        }
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
@@ -153,7 +183,8 @@ impl SurfaceHit {
         if ns == Vec3::ZERO || ns.dot(-dir) <= 0.0 {
             ns = ng;
         }
-        SurfaceHit { p, p_error, ng, frame: Frame::from_normal(ns), front_face, material: tri.material }
+        let surface = shading::surface_at(scene, material, hit.triangle, b);
+        SurfaceHit { p, p_error, ng, frame: Frame::from_normal(ns), front_face, material: tri.material, triangle: hit.triangle, b, surface }
     }
 
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
@@ -188,8 +219,8 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
     match ctx.lights.sample(ctx.scene, u_pick, u) {
         None => Vec3::ZERO,
-        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rays),
-        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, rays),
+        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rng, rays),
+        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
         Some(_) => Vec3::ZERO,
@@ -198,7 +229,8 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick: a
 /// delta light, so no MIS weight (BSDF sampling never reaches it).
-fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, rays: &mut RayCounts) -> Vec3 {
+#[allow(clippy::too_many_arguments)]
+fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some(inc) = light.incident(si.p) else { return Vec3::ZERO };
     if inc.wi.dot(si.ng) <= 0.0 {
         return Vec3::ZERO;
@@ -209,14 +241,15 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, l
         return Vec3::ZERO;
     }
     rays.shadow += 1;
-    if ctx.accel.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance) {
+    if ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, rng) {
         return Vec3::ZERO;
     }
     f * inc.irradiance * (wi_local.z / probability)
 }
 
 /// One point on an emitting triangle and its shadow ray.
-fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, ls: &LightSample, rays: &mut RayCounts) -> Vec3 {
+#[allow(clippy::too_many_arguments)]
+fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let to_light = ls.point - si.p;
     let dist2 = to_light.length_squared();
     if !(dist2 > 0.0) {
@@ -230,7 +263,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     }
     let cos_light = ls.normal.dot(-wi);
     let light_tri = &ctx.scene.triangles[ls.triangle as usize];
-    let le = ctx.scene.materials[light_tri.material as usize].emitted(cos_light > 0.0);
+    let le = shading::emission_at(ctx.scene, &ctx.scene.materials[light_tri.material as usize], ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0);
     let wi_local = si.frame.to_local(wi);
     let f = bsdf.eval(wo, wi_local);
     if le == Vec3::ZERO || f == Vec3::ZERO {
@@ -245,20 +278,19 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     // The target sits off the emitter by its error bound; the emitter's own
     // triangle is skipped, so the ray can run its full length and a wall
     // 10 µm in front of the light still casts its shadow.
-    if !(length > 0.0) || ctx.accel.occluded_except(origin, segment / length, length, ls.triangle) {
+    if !(length > 0.0) || ctx.occluded(origin, segment / length, length, ls.triangle, rng) {
         return Vec3::ZERO;
     }
     let weight = if mis { power_heuristic(light_pdf_solid_angle(ls.pdf_area, dist2, cos_light), bsdf.pdf(wo, wi_local)) } else { 1.0 };
     le * f * (weight * wi_local.z * cos_light.abs() / (dist2 * ls.pdf_area))
 }
 
-/// Emission of `material` seen by a ray at distance `t`, cosine `cos_light`
-/// at the emitter: whole on camera rays and after a delta lobe; MIS-weighted
-/// against light sampling on other BSDF rays; none under the seed's rule
-/// (light sampling alone counts emitters after the first hit).
+/// Emission `le` of `material` seen by a ray at distance `t`, cosine
+/// `cos_light` at the emitter: whole on camera rays and after a delta lobe;
+/// MIS-weighted against light sampling on other BSDF rays; none under the
+/// seed's rule (light sampling alone counts emitters after the first hit).
 #[allow(clippy::too_many_arguments)]
-fn emission_seen(ctx: &Context, material: &Material, front_face: bool, t: f32, cos_light: f32, depth: u32, bsdf_pdf: f32, from_delta: bool, mis: bool) -> Vec3 {
-    let le = material.emitted(front_face);
+fn emission_seen(ctx: &Context, material: &Material, le: Vec3, t: f32, cos_light: f32, depth: u32, bsdf_pdf: f32, from_delta: bool, mis: bool) -> Vec3 {
     if depth == 0 || le == Vec3::ZERO {
         return le;
     }
@@ -290,13 +322,14 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut from_delta = false;
     rays.camera += 1;
     for depth in 0..max_depth {
-        let hit = ctx.accel.intersect(o, d, f32::INFINITY);
+        let hit = ctx.intersect(o, d, rng);
         // A lamp in front of the surface adds its light; the ray goes on.
         let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
         if let Some(lamp) = lamp {
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
             let cos_light = tri.cross().normalize().dot(d);
-            l += beta * emission_seen(ctx, &ctx.scene.materials[tri.material as usize], cos_light < 0.0, lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
+            let material = &ctx.scene.materials[tri.material as usize];
+            l += beta * emission_seen(ctx, material, material.emitted(cos_light < 0.0), lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
         }
         // Nothing is lit by the background through light sampling (yet),
         // so every ray that escapes takes it whole.
@@ -307,10 +340,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
         if AREA {
-            l += beta * emission_seen(ctx, material, si.front_face, hit.t, si.ng.dot(d), depth, bsdf_pdf, from_delta, settings.mis);
+            let le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
+            l += beta * emission_seen(ctx, material, le, hit.t, si.ng.dot(d), depth, bsdf_pdf, from_delta, settings.mis);
         }
         let wo = si.frame.to_local(-d);
-        let bsdf = B::new(material, wo);
+        let bsdf = B::new(&si.surface, wo);
         let can_extend = depth + 1 < max_depth;
         if AREA || PUNCTUAL {
             l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);

@@ -123,6 +123,11 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         m.multiscatter = false;
     }
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
+    // A previewed asset without lights is lit by a white World.
+    let unlit = scene.punctual.is_empty() && !scene.materials.iter().any(|m| m.is_emissive());
+    if options.camera.as_deref() == Some(loader::AUTO_CAMERA) && options.background.is_none() && unlit {
+        scene.background = Vec3::ONE;
+    }
     let (width, height) = resolution(options.width, options.height, scene.camera.aspect_ratio);
     let time = options.time_limit.filter(|t| *t > 0.0).map(Duration::from_secs_f64);
     let samples = match options.samples {

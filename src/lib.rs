@@ -18,6 +18,8 @@ pub mod request;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod shading;
+pub mod texture;
 pub mod watch;
 
 /// The default scene, compiled into the binary so it renders from anywhere.

@@ -67,7 +67,9 @@ struct RenderOptions {
     /// Random seed: the same seed gives the same image [default: 0].
     #[arg(long)]
     seed: Option<u64>,
-    /// Camera to render, by node or camera name [default: the first perspective camera].
+    /// Camera to render, by node or camera name, or `auto`: one that frames
+    /// the scene (lit by a white World when it has no lights) [default: the
+    /// first perspective camera].
     #[arg(long)]
     camera: Option<String>,
     /// Which of the file's scenes [default: the file's default scene].

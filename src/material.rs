@@ -1,6 +1,54 @@
 //! A material as plain data: glTF pbrMetallicRoughness factors and emission.
 
+use crate::texture::TextureSlot;
 use glam::Vec3;
+
+/// What a BSDF needs of a material at one point: its factors, with any
+/// textures and vertex colours already applied (shading.rs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    /// Linear Rec.709 reflectance, each channel in [0, 1].
+    pub base_color: Vec3,
+    pub metallic: f32,
+    /// Perceptual roughness; the microfacet α is roughness².
+    pub roughness: f32,
+    /// KHR_materials_specular specularFactor.
+    pub specular: f32,
+    pub multiscatter: bool,
+}
+
+impl Surface {
+    /// No glossy layer at all: not metallic and KHR_materials_specular 0.
+    pub fn is_pure_lambert(&self) -> bool {
+        self.metallic <= 0.0 && self.specular <= 0.0
+    }
+}
+
+/// glTF's alphaMode. Cycles renders alpha as stochastic transparency, and
+/// so does Glint: camera, bounce and shadow rays alike.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    #[default]
+    Opaque,
+    /// Opaque where alpha ≥ cutoff, else not there.
+    Mask(f32),
+    /// There with probability alpha.
+    Blend,
+}
+
+/// The textures a material samples (glTF texture references resolved).
+/// Occlusion textures are not read: a path tracer computes occlusion.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MaterialTextures {
+    /// sRGB colour × baseColorFactor; its alpha × the factor's alpha.
+    pub base_color: Option<TextureSlot>,
+    /// B = metallic, G = roughness, × their factors.
+    pub metallic_roughness: Option<TextureSlot>,
+    /// sRGB colour × emissiveFactor × strength.
+    pub emissive: Option<TextureSlot>,
+    /// Tangent-space normal map and its scale (normalTexture.scale).
+    pub normal: Option<(TextureSlot, f32)>,
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -24,6 +72,11 @@ pub struct Material {
     /// Cycles' "Multiscatter GGX" (its default): the glossy lobes get back
     /// the energy single scattering loses. Off: plain "GGX".
     pub multiscatter: bool,
+    /// Textures, when the material has any.
+    pub textures: Option<Box<MaterialTextures>>,
+    /// baseColorFactor's alpha.
+    pub alpha: f32,
+    pub alpha_mode: AlphaMode,
 }
 
 impl Default for Material {
@@ -39,14 +92,29 @@ impl Default for Material {
             double_sided: false,
             lamp: false,
             multiscatter: true,
+            textures: None,
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
         }
     }
 }
 
 impl Material {
-    /// No glossy layer at all: not metallic and KHR_materials_specular 0.
+    /// No glossy layer anywhere on it: not metallic and
+    /// KHR_materials_specular 0 (a metallic texture only scales the factor).
     pub fn is_pure_lambert(&self) -> bool {
-        self.metallic <= 0.0 && self.specular <= 0.0
+        self.surface().is_pure_lambert()
+    }
+
+    /// The factors alone, as at a point with no textures or vertex colours.
+    #[inline]
+    pub fn surface(&self) -> Surface {
+        Surface { base_color: self.base_color, metallic: self.metallic, roughness: self.roughness, specular: self.specular, multiscatter: self.multiscatter }
+    }
+
+    /// Whether some of its surface can be missing (alpha).
+    pub fn has_alpha(&self) -> bool {
+        self.alpha_mode != AlphaMode::Opaque
     }
 
     pub fn is_emissive(&self) -> bool {

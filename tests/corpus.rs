@@ -1,11 +1,16 @@
 //! The loader over real outside files: every Khronos glTF-Validator test
 //! file (mostly invalid on purpose) must load or fail with a clean one-line
-//! error — no panic, no hang — and every Khronos sample model must load.
+//! error — no panic, no hang — and every Khronos sample model must load
+//! and render.
 //!
 //! The files live in `../shared` beside the repository (CI puts them
 //! there); GLINT_SHARED_DIR overrides the location.
 
+use glint::integrator::Context;
+use glint::job::{prepare, JobOptions, SceneExtras};
 use glint::loader::{inspect_file, load_file, LoadOptions};
+use glint::render::{render_pass, Film};
+use std::sync::atomic::AtomicBool;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
@@ -77,24 +82,55 @@ fn validator_corpus_loads_or_fails_cleanly() {
     assert!(panics.is_empty(), "{} file(s) panicked the loader:\n{}", panics.len(), panics.join("\n"));
 }
 
+/// What each sample model exercises, as its features line names it (and
+/// the warnings it must give: none of them uses anything unsupported).
+const SAMPLES: &[(&str, &[&str])] = &[
+    ("Box", &["metallic"]),
+    ("BoxTextured", &["textures (1 materials, 1 images)"]),
+    ("BoxVertexColors", &["vertex colours"]),
+    ("Cameras", &["ggx"]),
+    ("MultiUVTest", &["textures (1 materials, 2 images)", "emitters=1"]),
+    ("OrientationTest", &["diffuse", "metallic"]),
+    ("SimpleMeshes", &["ggx"]),
+    ("TextureCoordinateTest", &["textures (4 materials, 1 images)"]),
+    ("TextureSettingsTest", &["textures (9 materials, 3 images)"]),
+    ("Triangle", &["ggx"]),
+    ("TriangleWithoutIndices", &["ggx"]),
+];
+
 #[test]
-fn khronos_sample_models_load() {
+fn khronos_sample_models_load_and_render() {
     let dir = shared_dir().join("gltf-samples");
     assert!(dir.is_dir(), "{} is missing", dir.display());
     let mut files = Vec::new();
     files_with_extension(&dir, &["gltf", "glb"], &mut files);
-    assert_eq!(files.len(), 11, "expected the eleven sample models");
-    for f in &files {
-        match load_guarded(f) {
+    assert_eq!(files.len(), SAMPLES.len(), "expected the eleven sample models");
+    for (name, features) in SAMPLES {
+        let f = dir.join(format!("{name}/{name}.gltf"));
+        match load_guarded(&f) {
             Outcome::Loaded(n) => assert!(n > 0, "{}: no triangles", f.display()),
             Outcome::Error(e) => panic!("{e}"),
             Outcome::Panicked(msg) => panic!("{}: panicked: {msg}", f.display()),
         }
-        // Rendering needs a camera; most samples have none (--camera auto
-        // comes with scene coverage), which must be the clean error.
-        if let Err(e) = load_file(f, &LoadOptions::default()) {
+        // Most have no camera: that is the clean error, and --camera auto
+        // frames them, lit by a white World where they have no lights.
+        if let Err(e) = load_file(&f, &LoadOptions::default()) {
             assert!(e.to_string().contains("no perspective camera"), "{e}");
         }
+        let options = JobOptions { camera: Some("auto".into()), width: Some(32), height: Some(32), samples: Some(4), ..JobOptions::default() };
+        let job = prepare(Some(&f), &options, SceneExtras::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(job.scene.warnings.is_empty(), "{name}: {:?}", job.scene.warnings);
+        let (ctx, _) = Context::new(&job.scene);
+        let line = ctx.features_line(&job.settings);
+        for feature in *features {
+            assert!(line.contains(feature), "{name}: '{feature}' missing from {line}");
+        }
+        let mut film = Film::new(32, 32);
+        let stats = render_pass(&ctx, &job.settings, &mut film, 0..4, &AtomicBool::new(false), &|_| {}).unwrap();
+        let img = film.mean();
+        assert_eq!(stats.discarded, 0, "{name}: non-finite samples");
+        assert!(img.iter().all(|p| p.is_finite() && p.min_element() >= 0.0), "{name}: a bad pixel");
+        assert!(img.iter().any(|p| p.max_element() > 0.0), "{name}: black image");
     }
 }
 

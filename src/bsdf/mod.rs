@@ -19,7 +19,7 @@
 //! a lobe with probability `spec_probability` and reports the mixture pdf, so
 //! `f·cos/pdf` is an unbiased one-sample estimate whatever the choice.
 
-use crate::material::Material;
+use crate::material::Surface;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -183,7 +183,7 @@ pub struct SeedBsdf {
 }
 
 impl SeedBsdf {
-    pub fn new(m: &Material, wo: Vec3) -> Self {
+    pub fn new(m: &Surface, wo: Vec3) -> Self {
         let r = m.roughness.clamp(0.0, 1.0);
         let alpha = r * r;
         let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
@@ -264,7 +264,7 @@ pub struct LambertBsdf {
 }
 
 impl LambertBsdf {
-    pub fn new(m: &Material, _wo: Vec3) -> Self {
+    pub fn new(m: &Surface, _wo: Vec3) -> Self {
         LambertBsdf { albedo: m.base_color.clamp(Vec3::ZERO, Vec3::ONE) }
     }
 
@@ -291,7 +291,7 @@ impl LambertBsdf {
 /// A material evaluated at one shading point, for one outgoing direction:
 /// what the integrator needs of any BSDF model.
 pub trait Bsdf {
-    fn new(material: &Material, wo: Vec3) -> Self;
+    fn new(surface: &Surface, wo: Vec3) -> Self;
     /// f(wo, wi) without the cosine; delta lobes contribute nothing here.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
     /// Solid-angle pdf of `sample` producing wi, over its non-delta lobes.
@@ -315,8 +315,8 @@ pub enum BsdfModel {
 macro_rules! impl_bsdf {
     ($t:ty) => {
         impl Bsdf for $t {
-            fn new(material: &Material, wo: Vec3) -> Self {
-                <$t>::new(material, wo)
+            fn new(surface: &Surface, wo: Vec3) -> Self {
+                <$t>::new(surface, wo)
             }
             fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
                 <$t>::eval(self, wo, wi)

@@ -23,7 +23,7 @@
 use super::energy::{ms_scale, tables, DIELECTRIC_ETA};
 use super::microfacet::{self, fresnel_dielectric, schlick_average};
 use super::{fresnel_schlick, lambert, luminance, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
-use crate::material::Material;
+use crate::material::Surface;
 use glam::{Vec2, Vec3};
 
 #[derive(Clone, Copy, Debug)]
@@ -45,7 +45,7 @@ pub struct PrincipledBsdf {
 }
 
 impl PrincipledBsdf {
-    pub fn new(m: &Material, wo: Vec3) -> Self {
+    pub fn new(m: &Surface, wo: Vec3) -> Self {
         let roughness = m.roughness.clamp(0.0, 1.0);
         let alpha = roughness * roughness;
         let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;

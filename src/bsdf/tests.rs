@@ -4,11 +4,11 @@
 use super::chi2::{chi2_test, dir_at, u2};
 use super::*;
 use super::microfacet;
-use crate::material::Material;
+use crate::material::{Material, Surface};
 use crate::rng::Rng;
 
-fn material(base: Vec3, metallic: f32, roughness: f32) -> Material {
-    Material { base_color: base, metallic, roughness, ..Material::default() }
+fn material(base: Vec3, metallic: f32, roughness: f32) -> Surface {
+    Material { base_color: base, metallic, roughness, ..Material::default() }.surface()
 }
 
 /// With ~30 chi-square tests in the suite, a per-test level of 1e-4 keeps
@@ -339,7 +339,7 @@ fn without_multiscatter_a_rough_white_metal_loses_what_single_scattering_loses()
 /// bit, so the Lambert kernel renders the same image (features.rs).
 #[test]
 fn zero_specular_dielectric_is_exactly_lambert_in_every_model() {
-    fn same<B: Bsdf>(m: &Material, rng: &mut Rng) {
+    fn same<B: Bsdf>(m: &Surface, rng: &mut Rng) {
         for theta in [0.0f32, 50.0, 89.0, 89.99] {
             let wo = dir_at(theta);
             let (bsdf, lambert) = (B::new(m, wo), LambertBsdf::new(m, wo));

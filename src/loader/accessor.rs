@@ -109,6 +109,11 @@ impl<'a> Buffers<'a> {
         Ok(len)
     }
 
+    /// The bytes of a buffer view (an embedded image's, say).
+    pub fn view_bytes(&mut self, index: usize) -> Result<&[u8], String> {
+        self.view(index).map(|(data, _)| data)
+    }
+
     /// The bytes of a buffer view, checked against its buffer.
     fn view(&mut self, index: usize) -> Result<(&[u8], Option<usize>), String> {
         let root = self.root;
@@ -205,6 +210,19 @@ impl FloatData {
     pub fn get3(&self, i: usize) -> [f32; 3] {
         let v = &self.values[i * self.components..];
         [v[0], v[1], v[2]]
+    }
+    pub fn get2(&self, i: usize) -> [f32; 2] {
+        let v = &self.values[i * self.components..];
+        [v[0], v[1]]
+    }
+    pub fn get4(&self, i: usize) -> [f32; 4] {
+        let v = &self.values[i * self.components..];
+        [v[0], v[1], v[2], v[3]]
+    }
+    /// RGB or RGBA as RGBA (alpha 1 for RGB).
+    pub fn get4_or_one(&self, i: usize) -> glam::Vec4 {
+        let v = &self.values[i * self.components..];
+        glam::Vec4::new(v[0], v[1], v[2], if self.components >= 4 { v[3] } else { 1.0 })
     }
 }
 

@@ -7,13 +7,16 @@
 mod accessor;
 mod buffers;
 mod glb;
+mod images;
+mod tangents;
 
 use crate::camera::Camera;
-use crate::material::Material;
+use crate::material::{AlphaMode, Material, MaterialTextures};
 use crate::punctual::{PunctualKind, PunctualLight};
-use crate::scene::{Scene, Triangle};
-use accessor::{read_floats, read_indices, BinChunk, Buffers};
-use glam::{Mat3, Mat4, Quat, Vec3};
+use crate::scene::{Scene, Triangle, VertexAttributes};
+use accessor::{read_floats, read_indices, BinChunk, Buffers, FloatData};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+use images::{ImageCache, TextureRef};
 use gltf::json::accessor::Type;
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
@@ -26,6 +29,15 @@ use std::sync::Arc;
 
 /// Largest scene file Glint reads.
 pub const MAX_SCENE_BYTES: u64 = 2 << 30;
+
+/// Extensions Glint renders (others a file uses are named in a warning).
+const RENDERED: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_materials_specular",
+    "KHR_lights_punctual",
+];
 
 /// Extensions Glint understands or can safely ignore when a file requires them.
 const SUPPORTED_REQUIRED: &[&str] = &[
@@ -46,12 +58,15 @@ pub struct LoadError {
     pub message: String,
 }
 
+/// The camera name that asks for a camera framing the scene's bounds.
+pub const AUTO_CAMERA: &str = "auto";
+
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
     /// Which of the file's scenes; default: the file's `scene`, else 0.
     pub scene_index: Option<usize>,
-    /// A camera by node or camera name; default: the first perspective
-    /// camera met walking the scene graph depth first.
+    /// A camera by node or camera name, or `AUTO_CAMERA`; default: the
+    /// first perspective camera met walking the scene graph depth first.
     pub camera: Option<String>,
 }
 
@@ -164,12 +179,19 @@ fn load_parts(json: &[u8], bin: Option<BinChunk>, base_dir: Option<&Path>, optio
     let root = parse_root(json)?;
     let mut builder = Builder::new(&root, bin, base_dir);
     builder.walk_scene(options.scene_index)?;
-    let camera = builder.pick_camera(options.camera.as_deref())?;
+    let camera = match options.camera.as_deref() {
+        Some(AUTO_CAMERA) => {
+            let (min, max) = builder.triangles.iter().flat_map(|t| t.p).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            Camera::framing(min, max)?
+        }
+        wanted => builder.pick_camera(wanted)?,
+    };
     let warnings = builder.warnings();
     let mut scene = Scene::new(builder.triangles, builder.materials, camera);
     scene.punctual = builder.lights;
     scene.warnings = warnings;
-    scene.textured_materials = builder.stats.textured_materials;
+    scene.attributes = builder.attributes;
+    scene.images = builder.images.images;
     scene.bytes_read = builder.buffers.bytes_read;
     Ok(scene)
 }
@@ -181,8 +203,17 @@ struct Stats {
     degenerate: usize,
     bad_normals: usize,
     dangling_indices: usize,
-    textured_materials: usize,
     bad_lights: usize,
+    /// Vertex attributes a material needs that a primitive does not have.
+    missing_attributes: HashMap<String, usize>,
+}
+
+/// Vertex data a material's textures need.
+#[derive(Clone, Copy, Debug, Default)]
+struct Needs {
+    uv: [bool; 2],
+    /// The texture coordinate set of the normal map, when it has one.
+    normal_map_set: Option<usize>,
 }
 
 struct CameraCandidate {
@@ -194,8 +225,12 @@ struct CameraCandidate {
 struct Builder<'a> {
     root: &'a Root,
     buffers: Buffers<'a>,
+    base_dir: Option<&'a Path>,
     triangles: Vec<Triangle>,
+    attributes: VertexAttributes,
     materials: Vec<Material>,
+    needs: Vec<Needs>,
+    images: ImageCache,
     /// glTF material index (None: the default material) → ours.
     material_ids: HashMap<Option<usize>, u32>,
     cameras: Vec<CameraCandidate>,
@@ -220,8 +255,12 @@ impl<'a> Builder<'a> {
         Builder {
             root,
             buffers: Buffers::new(root, bin, base_dir),
+            base_dir,
             triangles: Vec::new(),
+            attributes: VertexAttributes::default(),
             materials: Vec::new(),
+            needs: Vec::new(),
+            images: ImageCache::default(),
             material_ids: HashMap::new(),
             cameras: Vec::new(),
             lights: Vec::new(),
@@ -352,24 +391,68 @@ impl<'a> Builder<'a> {
         if let Some(&id) = self.material_ids.get(&index) {
             return Ok(id);
         }
-        let material = match index {
-            None => Material::default(),
+        let (material, needs) = match index {
+            None => (Material::default(), Needs::default()),
             Some(i) => {
                 let m = self.root.materials.get(i).ok_or_else(|| format!("material {i} does not exist"))?;
-                if m.pbr_metallic_roughness.base_color_texture.is_some()
-                    || m.pbr_metallic_roughness.metallic_roughness_texture.is_some()
-                    || m.emissive_texture.is_some()
-                    || m.normal_texture.is_some()
-                {
-                    self.stats.textured_materials += 1;
-                }
-                convert_material(m, i)
+                let mut material = convert_material(m, i);
+                let textures = self.material_textures(m).map_err(|e| format!("material {i}: {e}"))?;
+                let needs = needs_of(&textures);
+                material.textures = (textures != MaterialTextures::default()).then(|| Box::new(textures));
+                (material, needs)
             }
         };
         let id = self.materials.len() as u32;
         self.materials.push(material);
+        self.needs.push(needs);
         self.material_ids.insert(index, id);
         Ok(id)
+    }
+
+    /// A material's textures, each resolved to a decoded image.
+    fn material_textures(&mut self, m: &gltf::json::Material) -> Result<MaterialTextures, String> {
+        fn info(i: &gltf::json::texture::Info) -> TextureRef<'_> {
+            TextureRef { index: i.index.value(), tex_coord: i.tex_coord, transform: i.extensions.as_ref().and_then(|e| e.texture_transform.as_ref()) }
+        }
+        let pbr = &m.pbr_metallic_roughness;
+        let base_color = pbr.base_color_texture.as_ref().map(info);
+        let metallic_roughness = pbr.metallic_roughness_texture.as_ref().map(info);
+        let emissive = m.emissive_texture.as_ref().map(info);
+        // The normal texture's transform sits in its extension's free map.
+        let normal_transform = m
+            .normal_texture
+            .as_ref()
+            .and_then(|n| n.extensions.as_ref())
+            .and_then(|e| e.others.get("KHR_texture_transform"))
+            .and_then(|v| serde_json::from_value(v.clone()).ok());
+        let normal = m.normal_texture.as_ref().map(|n| (TextureRef { index: n.index.value(), tex_coord: n.tex_coord, transform: normal_transform.as_ref() }, finite_or(n.scale, 1.0)));
+        let mut slot = |r: Option<TextureRef>| -> Result<_, String> {
+            match r {
+                Some(r) => self.images.slot(self.root, &mut self.buffers, self.base_dir, &r),
+                None => Ok(None),
+            }
+        };
+        Ok(MaterialTextures {
+            base_color: slot(base_color)?,
+            metallic_roughness: slot(metallic_roughness)?,
+            emissive: slot(emissive)?,
+            normal: match normal {
+                Some((r, scale)) => slot(Some(r))?.map(|s| (s, scale)),
+                None => None,
+            },
+        })
+    }
+
+    /// A vertex attribute of a primitive, if it has it, checked against
+    /// the vertex count.
+    fn attribute(&mut self, prim: &gltf::json::mesh::Primitive, semantic: Semantic, types: &[Type], vertices: usize) -> Result<Option<FloatData>, String> {
+        let name = format!("{semantic:?}");
+        let Some(index) = prim.attributes.get(&Checked::Valid(semantic)) else { return Ok(None) };
+        let data = read_floats(&mut self.buffers, index.value(), types)?;
+        if data.count() != vertices {
+            return Err(format!("{name} has {} elements, POSITION {vertices}", data.count()));
+        }
+        Ok(Some(data))
     }
 
     fn add_mesh(&mut self, mesh_index: usize, world: &Mat4) -> Result<(), String> {
@@ -394,17 +477,8 @@ impl<'a> Builder<'a> {
                 .get(&Checked::Valid(Semantic::Positions))
                 .ok_or_else(|| what("has no POSITION attribute".into()))?;
             let positions = read_floats(&mut self.buffers, pos_index.value(), &[Type::Vec3]).map_err(what)?;
-            let normals = match prim.attributes.get(&Checked::Valid(Semantic::Normals)) {
-                Some(n) => {
-                    let n = read_floats(&mut self.buffers, n.value(), &[Type::Vec3]).map_err(what)?;
-                    if n.count() != positions.count() {
-                        return Err(what(format!("NORMAL has {} elements, POSITION {}", n.count(), positions.count())));
-                    }
-                    Some(n)
-                }
-                None => None,
-            };
             let vertex_count = positions.count();
+            let normals = self.attribute(prim, Semantic::Normals, &[Type::Vec3], vertex_count).map_err(what)?;
             let indices = match prim.indices {
                 Some(i) => read_indices(&mut self.buffers, i.value()).map_err(what)?,
                 None => (0..vertex_count as u32).collect(),
@@ -414,10 +488,33 @@ impl<'a> Builder<'a> {
             }
             self.stats.dangling_indices += indices.len() % 3;
             let material = self.material_id(prim.material.map(|m| m.value()))?;
-            for tri in indices.chunks_exact(3) {
+            let needs = self.needs[material as usize];
+            let mut uvs: [Option<FloatData>; 2] = [None, None];
+            for (set, semantic) in [Semantic::TexCoords(0), Semantic::TexCoords(1)].into_iter().enumerate() {
+                if needs.uv[set] {
+                    uvs[set] = self.attribute(prim, semantic, &[Type::Vec2], vertex_count).map_err(what)?;
+                    if uvs[set].is_none() {
+                        *self.stats.missing_attributes.entry(format!("TEXCOORD_{set}")).or_default() += 1;
+                    }
+                }
+            }
+            let colors = self.attribute(prim, Semantic::Colors(0), &[Type::Vec3, Type::Vec4], vertex_count).map_err(what)?;
+            let whole = indices.len() / 3 * 3;
+            // Per corner (index), in the file's winding.
+            let tangents: Option<Vec<[f32; 4]>> = match needs.normal_map_set {
+                None => None,
+                Some(set) => match self.attribute(prim, Semantic::Tangents, &[Type::Vec4], vertex_count).map_err(what)? {
+                    Some(t) => Some(indices[..whole].iter().map(|&i| t.get4(i as usize)).collect()),
+                    None => uvs[set].as_ref().map(|uv| generated_tangents(&indices[..whole], &positions, normals.as_ref(), uv)),
+                },
+            };
+            let tangent_sign = if flip { -1.0 } else { 1.0 };
+            for (k, tri) in indices.chunks_exact(3).enumerate() {
                 let mut order = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                let mut corners = [3 * k, 3 * k + 1, 3 * k + 2];
                 if flip {
                     order.swap(1, 2);
+                    corners.swap(1, 2);
                 }
                 let p = order.map(|i| world.transform_point3(Vec3::from(positions.get3(i))));
                 if !p.iter().all(|v| v.is_finite()) {
@@ -443,6 +540,21 @@ impl<'a> Builder<'a> {
                     }
                 });
                 self.triangles.push(Triangle { p, n, material });
+                let before = self.triangles.len() - 1;
+                let a = &mut self.attributes;
+                for (column, uv) in a.uv.iter_mut().zip(&uvs) {
+                    let corners = uv.as_ref().map(|uv| order.map(|i| Vec2::from(uv.get2(i))));
+                    push_column(column, before, corners, [Vec2::ZERO; 3]);
+                }
+                let color = colors.as_ref().map(|c| order.map(|i| c.get4_or_one(i)));
+                push_column(&mut a.color, before, color, [Vec4::ONE; 3]);
+                let tangent = tangents.as_ref().map(|t| {
+                    corners.map(|c| {
+                        let [x, y, z, w] = t[c];
+                        (linear * Vec3::new(x, y, z)).normalize_or_zero().extend(if w < 0.0 { -tangent_sign } else { tangent_sign })
+                    })
+                });
+                push_column(&mut a.tangent, before, tangent, [Vec4::ZERO; 3]);
             }
         }
         Ok(())
@@ -461,7 +573,7 @@ impl<'a> Builder<'a> {
                 .cameras
                 .iter()
                 .find(|c| root.cameras.get(c.camera).is_some_and(|cam| cam.perspective.is_some()))
-                .ok_or("the scene has no perspective camera (add one in Blender, or name one with --camera)")?,
+                .ok_or("the scene has no perspective camera (add one in Blender, or render with --camera auto)")?,
         };
         let cam = root.cameras.get(candidate.camera).ok_or_else(|| format!("camera {} does not exist", candidate.camera))?;
         let name = candidate.node_name.clone().or_else(|| cam.name.clone()).unwrap_or_else(|| format!("camera {}", candidate.camera));
@@ -495,11 +607,67 @@ impl<'a> Builder<'a> {
         if s.bad_lights > 0 {
             w.push(format!("left out {} punctual light(s) that do not exist, have an unknown type, or a non-finite transform or intensity", s.bad_lights));
         }
-        if s.textured_materials > 0 {
-            w.push(format!("{} material(s) use textures, which are not supported yet: their factors are used", s.textured_materials));
+        let mut missing: Vec<_> = s.missing_attributes.iter().collect();
+        missing.sort();
+        for (attribute, n) in missing {
+            w.push(format!("{n} primitive(s) have textured materials but no {attribute}: the texture's first texel is used"));
+        }
+        w.extend(self.images.failures.iter().cloned());
+        if self.images.unsupported_sets > 0 {
+            w.push(format!("{} texture reference(s) use a texture coordinate set above 1: TEXCOORD_1 is read instead", self.images.unsupported_sets));
+        }
+        let unsupported: Vec<&str> = self.root.extensions_used.iter().map(String::as_str).filter(|e| !RENDERED.contains(e)).collect();
+        if !unsupported.is_empty() {
+            w.push(format!("not rendered yet, ignored: {}", unsupported.join(", ")));
         }
         w
     }
+}
+
+/// Append one triangle's corners to an attribute column: a column starts
+/// (filled with `default` for the triangles before) when a triangle first
+/// has the attribute, and once started, every triangle adds an entry.
+fn push_column<T: Copy>(column: &mut Vec<T>, before: usize, value: Option<T>, default: T) {
+    match value {
+        Some(v) => {
+            column.resize(before, default);
+            column.push(v);
+        }
+        None if !column.is_empty() => column.push(default),
+        None => {}
+    }
+}
+
+/// What a material's textures read from its primitives.
+fn needs_of(t: &MaterialTextures) -> Needs {
+    let mut needs = Needs::default();
+    for slot in [&t.base_color, &t.metallic_roughness, &t.emissive].into_iter().flatten() {
+        needs.uv[slot.texcoord as usize] = true;
+    }
+    if let Some((slot, _)) = &t.normal {
+        needs.uv[slot.texcoord as usize] = true;
+        needs.normal_map_set = Some(slot.texcoord as usize);
+    }
+    needs
+}
+
+/// MikkTSpace tangents per corner for a primitive that has none. Without
+/// normals (flat shading) each corner gets its face's normal.
+fn generated_tangents(indices: &[u32], positions: &FloatData, normals: Option<&FloatData>, uv: &FloatData) -> Vec<[f32; 4]> {
+    let corner_positions: Vec<[f32; 3]> = indices.iter().map(|&i| positions.get3(i as usize)).collect();
+    let corner_normals: Vec<[f32; 3]> = match normals {
+        Some(n) => indices.iter().map(|&i| n.get3(i as usize)).collect(),
+        None => corner_positions
+            .chunks_exact(3)
+            .flat_map(|p| {
+                let (a, b, c) = (Vec3::from(p[0]), Vec3::from(p[1]), Vec3::from(p[2]));
+                [(b - a).cross(c - a).normalize_or_zero().to_array(); 3]
+            })
+            .collect(),
+    };
+    let corner_uvs: Vec<[f32; 2]> = indices.iter().map(|&i| uv.get2(i as usize)).collect();
+    let corners: Vec<u32> = (0..indices.len() as u32).collect();
+    tangents::mikktspace(&corners, &corner_positions, &corner_normals, &corner_uvs)
 }
 
 fn finite_or(v: f32, default: f32) -> f32 {
@@ -516,7 +684,7 @@ fn unit_colour(c: [f32; 3], default: f32) -> Vec3 {
 /// read as radiance in W·sr⁻¹·m⁻² (Blender's Emission Strength 1 = radiance 1).
 fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
     let pbr = &m.pbr_metallic_roughness;
-    let [r, g, b, _alpha] = pbr.base_color_factor.0;
+    let [r, g, b, alpha] = pbr.base_color_factor.0;
     let base_color = unit_colour([r, g, b], 1.0);
     let strength = m
         .extensions
@@ -529,8 +697,16 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         .as_ref()
         .and_then(|e| e.specular.as_ref())
         .map_or(1.0, |s| finite_or(s.specular_factor.0, 1.0).clamp(0.0, 1.0));
+    let alpha_mode = match m.alpha_mode {
+        Checked::Valid(gltf::json::material::AlphaMode::Mask) => AlphaMode::Mask(m.alpha_cutoff.map_or(0.5, |c| finite_or(c.0, 0.5))),
+        Checked::Valid(gltf::json::material::AlphaMode::Blend) => AlphaMode::Blend,
+        _ => AlphaMode::Opaque,
+    };
     Material {
         name: m.name.clone().unwrap_or_else(|| format!("material {index}")),
+        alpha: finite_or(alpha, 1.0).clamp(0.0, 1.0),
+        alpha_mode,
+        textures: None,
         specular,
         base_color,
         metallic: finite_or(pbr.metallic_factor.0, 1.0).clamp(0.0, 1.0),

@@ -148,7 +148,7 @@ pub fn closed_box(albedo: f32, emission: f32) -> Scene {
         emission: Vec3::splat(emission),
         double_sided: false,
         lamp: false,
-        multiscatter: true,
+        ..Material::default()
     };
     let camera = Camera::from_world("inside".into(), &Mat4::from_translation(Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
     Scene::new(triangles, vec![material], camera)
