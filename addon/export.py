@@ -4,12 +4,15 @@ exporter, and a render request with what glTF cannot carry.
 Through glTF (Principled BSDF → pbrMetallicRoughness, the exporter's job):
 base colour, metallic, roughness, emission colour × strength
 (KHR_materials_emissive_strength), Specular IOR Level 0 as
-KHR_materials_specular 0, cameras and mesh geometry with modifiers applied.
+KHR_materials_specular 0, the image textures plugged into them and a Normal
+Map node's image (with texture coordinates, Blender's own MikkTSpace
+tangents where a normal map needs them, and the colour attributes materials
+use), alpha, cameras and mesh geometry with modifiers applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²) and render punctual: a light's radius, soft
 falloff and a sun's angle are not carried. Not carried, or not yet rendered
-by Glint: textures (neither images nor UVs are exported; the user is
-warned), transmission, other Principled inputs (coat, sheen,
+by Glint: procedural textures (the user is warned), transmission, other
+Principled inputs (coat, sheen,
 subsurface, anisotropy, thin film), and World node setups other than a plain
 Background.
 
@@ -34,6 +37,7 @@ def export_scene(path, frame, subframe):
     # The exporter reads the view layer's depsgraph, which an animation
     # render does not move to the frame it renders: evaluate that frame.
     bpy.context.scene.frame_set(frame, subframe=subframe)
+    normal_maps = any(uses_node(m, {"NORMAL_MAP"}) for m in used_materials(bpy.context.evaluated_depsgraph_get()))
     directory, name = os.path.split(path)
     tmp = os.path.join(directory, f".{name}.export.glb")
     result = bpy.ops.export_scene.gltf(
@@ -54,12 +58,14 @@ def export_scene(path, frame, subframe):
         export_morph=False,
         export_extras=False,
         export_materials="EXPORT",
-        # Only what Glint renders: no texture is rendered yet, so no images,
-        # texture coordinates, tangents, vertex colours or attributes.
-        export_image_format="NONE",
-        export_texcoords=False,
-        export_tangents=False,
-        export_vertex_color="NONE",
+        # Only what Glint renders: images in their own format, texture
+        # coordinates, the colour attributes materials use; tangents only
+        # for normal maps (Blender's MikkTSpace, computed before the
+        # exporter triangulates quads, so they match Cycles exactly).
+        export_image_format="AUTO",
+        export_texcoords=True,
+        export_tangents=normal_maps,
+        export_vertex_color="MATERIAL",
         export_all_vertex_colors=False,
         export_active_vertex_color_when_no_material=False,
         export_attributes=False,
@@ -132,9 +138,9 @@ def render_request(depsgraph, job, width, height):
             )
         }
     )
-    textured = sorted(material.name for material in used_materials(depsgraph) if uses_image_texture(material))
-    if textured:
-        warnings.append(f"{', '.join(textured)}: image textures are not rendered by Glint yet and are not exported; the node's own values are used")
+    procedural = sorted(m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES))
+    if procedural:
+        warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
     if soft:
         warnings.append(f"{', '.join(soft)}: Glint renders point, spot and sun lights as punctual (radius and angle 0), so their shadows are hard")
     request = {
@@ -151,6 +157,9 @@ def render_request(depsgraph, job, width, height):
         # is Blender's backface culling, which Cycles ignores. (A Cornell box
         # whose light faced down came out 9% dark without this.)
         "two_sided_emission": True,
+        # An object without a material renders with Cycles' default surface
+        # (diffuse 0.8 grey), not glTF's default (white metal).
+        "default_surface": [0.8, 0.8, 0.8],
         "area_lights": area_lights(depsgraph),
     }
     single_scatter = sorted(
@@ -176,8 +185,16 @@ def used_materials(depsgraph):
     return list(found.values())
 
 
-def uses_image_texture(material):
-    return any(n.type == "TEX_IMAGE" and n.image is not None and any(o.is_linked for o in n.outputs) for n in material.node_tree.nodes)
+# Texture nodes that compute their values: glTF carries images only.
+PROCEDURAL_TEXTURES = {
+    "TEX_NOISE", "TEX_VORONOI", "TEX_WAVE", "TEX_MAGIC", "TEX_GRADIENT", "TEX_CHECKER",
+    "TEX_BRICK", "TEX_GABOR", "TEX_WHITE_NOISE", "TEX_MUSGRAVE", "TEX_SKY",
+}
+
+
+def uses_node(material, types):
+    """Whether a node of one of these types feeds something in the material."""
+    return any(n.type in types and any(o.is_linked for o in n.outputs) for n in material.node_tree.nodes)
 
 
 def json_bytes(obj):

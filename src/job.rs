@@ -89,11 +89,12 @@ pub struct SceneExtras<'a> {
     pub area_lights: &'a [AreaLight],
     /// Materials rendered with plain (single-scattering) GGX.
     pub single_scatter_materials: &'a [String],
+    pub default_surface: Option<[f32; 3]>,
 }
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, default_surface: r.default_surface }
     }
 }
 
@@ -121,6 +122,10 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     }
     for m in scene.materials.iter_mut().filter(|m| extras.single_scatter_materials.contains(&m.name)) {
         m.multiscatter = false;
+    }
+    if let (Some(colour), Some(id)) = (extras.default_surface, scene.default_material) {
+        let m = &mut scene.materials[id as usize];
+        (m.base_color, m.metallic, m.specular) = (Vec3::from(colour), 0.0, 0.0);
     }
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
     // A previewed asset without lights is lit by a white World.

@@ -55,6 +55,10 @@ pub struct RenderRequest {
     /// than Cycles' default "Multiscatter GGX".
     pub single_scatter_materials: Vec<String>,
     pub area_lights: Vec<AreaLight>,
+    /// Diffuse colour of primitives without a material, instead of glTF's
+    /// default (white metal): Cycles renders them with its default surface,
+    /// a diffuse BSDF of 0.8 grey.
+    pub default_surface: Option<[f32; 3]>,
 }
 
 impl RenderRequest {
@@ -92,6 +96,9 @@ impl RenderRequest {
         if self.background.is_some_and(|b| b.iter().any(|c| !(c.is_finite() && *c >= 0.0))) {
             return Err("background must be three finite numbers ≥ 0".into());
         }
+        if self.default_surface.is_some_and(|b| b.iter().any(|c| !(0.0..=1.0).contains(c))) {
+            return Err("default_surface must be three numbers in [0, 1]".into());
+        }
         Ok(())
     }
 }
@@ -115,6 +122,7 @@ mod tests {
             (br#"{"time_limit": -1}"#, "time_limit"),
             (br#"{"area_lights": [{"shape": "STAR", "size": [1,1], "matrix": [], "color": [1,1,1], "power": 1}]}"#, "STAR"),
             (br#"{"width": 64"#, "EOF"),
+            (br#"{"default_surface": [2, 0, 0]}"#, "default_surface"),
         ] {
             let e = RenderRequest::parse(bad).unwrap_err();
             assert!(e.contains(why) && !e.contains('\n'), "{e}");

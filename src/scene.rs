@@ -45,6 +45,8 @@ pub struct VertexAttributes {
 pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,
+    /// The material of primitives that name none (glTF's default), if any.
+    pub default_material: Option<u32>,
     pub camera: Camera,
     pub attributes: VertexAttributes,
     /// Decoded texture images, shared by the materials that use them.
@@ -67,6 +69,7 @@ impl Scene {
         Scene {
             triangles,
             materials,
+            default_material: None,
             camera,
             attributes: VertexAttributes::default(),
             images: Vec::new(),

@@ -2,10 +2,13 @@
 //! emissive, normal) and the World's environment map.
 //!
 //! An image is decoded once and shared by every material that uses it.
-//! 8-bit images stay 8-bit: a texel is turned into linear float at lookup,
-//! through a 256-entry sRGB table for colour data (exactly what decoding
-//! the whole image to float would give, at a quarter of the memory);
-//! 16-bit and float images are kept as f32.
+//! 8-bit images stay 8-bit, as in Cycles, and like Cycles Glint filters an
+//! 8-bit sRGB image in its encoded values and decodes the result (a red and
+//! blue checker came out 14% brighter in red than Cycles' when texels were
+//! decoded first); 16-bit and float images are kept as linear f32 and
+//! filtered there. Colour is filtered premultiplied by alpha, also as in
+//! Cycles (straight filtering let a hole's colour bleed onto the opaque
+//! texels around it: 9% off in green and blue in the suite's alpha scene).
 //!
 //! Lookups follow glTF (and Cycles' image texture): uv (0, 0) is the image's
 //! top-left corner, texel centres sit at (i + ½)/width, bilinear filtering
@@ -152,8 +155,22 @@ impl Image {
         let (x0, y0) = (x0 as i64, y0 as i64);
         let xs = [wrap_index(x0, w, sampler.wrap_s), wrap_index(x0 + 1, w, sampler.wrap_s)];
         let ys = [wrap_index(y0, h, sampler.wrap_t), wrap_index(y0 + 1, h, sampler.wrap_t)];
-        let row = |y| self.texel(xs[0], y, encoding) * (1.0 - fx) + self.texel(xs[1], y, encoding) * fx;
-        row(ys[0]) * (1.0 - fy) + row(ys[1]) * fy
+        // 8-bit texels are filtered encoded, then decoded (Cycles' byte
+        // images); float texels decoded, then filtered.
+        // Colour is filtered premultiplied by alpha, as Cycles does, so a
+        // transparent texel's colour does not bleed into an opaque one's.
+        let filter_encoded = matches!(self.texels, Texels::Rgba8(_));
+        let at = |x, y| {
+            let t = if filter_encoded { self.texel(x, y, Encoding::Linear) } else { self.texel(x, y, encoding) };
+            (t.truncate() * t.w).extend(t.w)
+        };
+        let row = |y| at(xs[0], y) * (1.0 - fx) + at(xs[1], y) * fx;
+        let premultiplied = row(ys[0]) * (1.0 - fy) + row(ys[1]) * fy;
+        let v = if premultiplied.w > 0.0 { (premultiplied.truncate() / premultiplied.w).extend(premultiplied.w) } else { premultiplied };
+        match encoding {
+            Encoding::Srgb if filter_encoded => Vec4::new(srgb_to_linear(v.x), srgb_to_linear(v.y), srgb_to_linear(v.z), v.w),
+            _ => v,
+        }
     }
 }
 
@@ -204,6 +221,30 @@ mod tests {
         assert!((at(0.5) - 0.5).abs() < 1e-6);
         assert_eq!(at(0.0), 0.0, "clamped at the edge");
         assert_eq!(at(1.0), 1.0);
+    }
+
+    #[test]
+    fn eight_bit_srgb_is_filtered_encoded_then_decoded_as_cycles_does() {
+        let img = black_white();
+        let s = Sampler { wrap_s: Wrap::ClampToEdge, ..Sampler::default() };
+        let mid = img.sample(Vec2::new(0.5, 0.5), s, Encoding::Srgb).x;
+        assert!((mid - srgb_to_linear(0.5)).abs() < 1e-6, "{mid}");
+        // Float images are linear already: filtered as they are.
+        let float = Image { name: "f".into(), width: 2, height: 1, texels: Texels::RgbaF32(vec![[0.0, 0.0, 0.0, 1.0], [1.0; 4]]) };
+        assert!((float.sample(Vec2::new(0.5, 0.5), s, Encoding::Linear).x - 0.5).abs() < 1e-6);
+    }
+
+    /// Between an opaque white texel and a transparent red one, colour is
+    /// weighted by alpha (premultiplied filtering, as Cycles does): the
+    /// red, at alpha 0, adds nothing to the colour, half to the coverage.
+    #[test]
+    fn colour_is_filtered_premultiplied_by_alpha() {
+        let img = image(2, 1, vec![[255, 255, 255, 255], [255, 0, 0, 0]]);
+        let s = Sampler { wrap_s: Wrap::ClampToEdge, ..Sampler::default() };
+        let mid = img.sample(Vec2::new(0.5, 0.5), s, Encoding::Linear);
+        assert!((mid - Vec4::new(1.0, 1.0, 1.0, 0.5)).abs().max_element() < 1e-6, "{mid}");
+        let clear = img.sample(Vec2::new(0.75, 0.5), s, Encoding::Linear);
+        assert_eq!(clear.w, 0.0, "fully transparent: {clear}");
     }
 
     #[test]

@@ -226,3 +226,23 @@ fn broken_images_warn_and_bad_references_are_errors() {
     let err = load_bytes(&quad_gltf(material, vec![], None), None, "quad.gltf", &LoadOptions::default()).unwrap_err().to_string();
     assert_eq!(err, "quad.gltf: material 0: texture 7 does not exist");
 }
+
+/// A primitive without a material renders with the request's default
+/// surface (Cycles' diffuse 0.8 grey) instead of glTF's white metal.
+#[test]
+fn the_default_surface_replaces_gltfs_default_material() {
+    use glint::job::{prepare, JobOptions, SceneExtras};
+    let mut doc: Value = serde_json::from_slice(&quad_gltf(lambert(json!({})), vec![], None)).unwrap();
+    doc["meshes"][0]["primitives"][0].as_object_mut().unwrap().remove("material");
+    let dir = std::env::temp_dir().join(format!("glint-default-surface-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("quad.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let extras = SceneExtras { default_surface: Some([0.8, 0.8, 0.8]), ..SceneExtras::default() };
+    let job = prepare(Some(&path), &JobOptions::default(), extras).unwrap();
+    let m = &job.scene.materials[job.scene.default_material.unwrap() as usize];
+    assert!(m.is_pure_lambert() && m.base_color == Vec3::splat(0.8), "{m:?}");
+    let job = prepare(Some(&path), &JobOptions::default(), SceneExtras::default()).unwrap();
+    assert_eq!(job.scene.materials[0].metallic, 1.0, "glTF's default without the request");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -191,6 +191,7 @@ fn load_parts(json: &[u8], bin: Option<BinChunk>, base_dir: Option<&Path>, optio
     scene.punctual = builder.lights;
     scene.warnings = warnings;
     scene.attributes = builder.attributes;
+    scene.default_material = builder.material_ids.get(&None).copied();
     scene.images = builder.images.images;
     scene.bytes_read = builder.buffers.bytes_read;
     Ok(scene)

@@ -81,27 +81,33 @@ def test_f12_gives_what_glint_render_gives_for_the_exported_scene(empty_scene, e
 
 def test_the_request_carries_area_lights_and_the_world(empty_scene):
     build_scene(empty_scene)
-    # A textured material: what Glint leaves out reaches the user as a warning.
+    # An image texture goes through glTF; a procedural one cannot, and
+    # reaches the user as a warning.
     red = bpy.data.materials["Red"]
     texture = red.node_tree.nodes.new("ShaderNodeTexImage")
     texture.image = bpy.data.images.new("Checker", 8, 8)
     texture.image.generated_type = "UV_GRID"
     red.node_tree.links.new(texture.outputs["Color"], red.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
-    # An animation and a vertex colour layer: data Glint does not render.
+    noise = red.node_tree.nodes.new("ShaderNodeTexNoise")
+    red.node_tree.links.new(noise.outputs["Fac"], red.node_tree.nodes["Principled BSDF"].inputs["Roughness"])
+    # An animation and a vertex colour layer no material uses: data Glint
+    # does not render.
     sphere = bpy.data.objects["Sphere"]
     sphere.keyframe_insert("location", frame=1)
     sphere.location.z += 1
     sphere.keyframe_insert("location", frame=10)
     sphere.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
     _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-    assert any(w.startswith("Red: image textures are not rendered") for w in warnings), warnings
+    assert any(w.startswith("Red: procedural textures cannot go through glTF") for w in warnings), warnings
     bpy.ops.render.render()
-    # The exported file holds only what Glint renders: no images, textures,
-    # texture coordinates, tangents, colours, animations or skins.
+    # The exported file holds what Glint renders: the image and the UVs of
+    # the textured mesh, no tangents (no normal map), colours, animations
+    # or skins.
     doc = glb_json(daemon.current().path("scene.glb"))
     attributes = {a for mesh in doc["meshes"] for p in mesh["primitives"] for a in p["attributes"]}
-    assert attributes == {"POSITION", "NORMAL"}, attributes
-    assert not any(doc.get(k) for k in ("images", "textures", "samplers", "animations", "skins")), sorted(doc)
+    assert attributes == {"POSITION", "NORMAL", "TEXCOORD_0"}, attributes
+    assert len(doc["images"]) == 1 and any(m.get("pbrMetallicRoughness", {}).get("baseColorTexture") for m in doc["materials"])
+    assert not any(doc.get(k) for k in ("animations", "skins")), sorted(doc)
     request = json.loads(open(daemon.current().path("request.json")).read())
     assert request["background"] == pytest.approx([0.1, 0.15, 0.25])
     (panel,) = request["area_lights"]
