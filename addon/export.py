@@ -14,7 +14,8 @@ falloff and a sun's angle are not carried. Not carried, or not yet rendered
 by Glint: procedural textures (the user is warned), transmission, other
 Principled inputs (coat, sheen,
 subsurface, anisotropy, thin film), and World node setups other than a plain
-Background.
+Background colour or an equirectangular Environment Texture (with at most a
+Mapping node's Z rotation), which the request carries.
 
 Through the request: resolution × percentage, the scene camera, samples,
 bounces, time limit, seed, the World colour, and every area light (glTF has
@@ -76,22 +77,40 @@ def export_scene(path, frame, subframe):
 
 
 def world_background(scene):
-    """(radiance RGB, problem or None) of the World: a plain Background node's
-    colour × strength, or the World colour without nodes."""
+    """(radiance RGB, environment or None, problem or None) of the World: a
+    plain Background node's colour × strength, or an Environment Texture
+    (through an optional Mapping node) × strength, or the World colour
+    without nodes."""
     world = scene.world
     if world is None:
-        return [0.0, 0.0, 0.0], None
+        return [0.0, 0.0, 0.0], None, None
     if not world.use_nodes or world.node_tree is None:
-        return list(world.color[:3]), None
+        return list(world.color[:3]), None, None
     outputs = [n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output]
     links = outputs[0].inputs["Surface"].links if outputs else []
     if not links:
-        return [0.0, 0.0, 0.0], None
+        return [0.0, 0.0, 0.0], None, None
     node = links[0].from_node
-    if node.type != "BACKGROUND" or node.inputs["Color"].is_linked or node.inputs["Strength"].is_linked:
-        return [0.0, 0.0, 0.0], f"the World's node setup ({node.name}) is not a plain Background colour; Glint renders it black"
+    if node.type != "BACKGROUND" or node.inputs["Strength"].is_linked:
+        return [0.0, 0.0, 0.0], None, f"the World's node setup ({node.name}) is not a Background colour or environment image; Glint renders it black"
     strength = node.inputs["Strength"].default_value
-    return [c * strength for c in node.inputs["Color"].default_value[:3]], None
+    colour = node.inputs["Color"]
+    if not colour.is_linked:
+        return [c * strength for c in colour.default_value[:3]], None, None
+    env = colour.links[0].from_node
+    if env.type != "TEX_ENVIRONMENT" or env.image is None or env.projection != "EQUIRECTANGULAR":
+        return [0.0, 0.0, 0.0], None, f"the World's colour comes from {env.name}, not an equirectangular Environment Texture; Glint renders it black"
+    path = bpy.path.abspath(env.image.filepath, library=env.image.library)
+    if env.image.packed_file is not None or not os.path.isfile(path):
+        return [0.0, 0.0, 0.0], None, f"the World's image {env.image.name} is not a file on disk (packed or generated); save it to render it with Glint"
+    rotation = 0.0
+    vector = env.inputs["Vector"]
+    if vector.is_linked:
+        mapping = vector.links[0].from_node
+        if mapping.type != "MAPPING" or any(mapping.inputs[k].is_linked for k in ("Rotation", "Location", "Scale")):
+            return [0.0, 0.0, 0.0], None, f"the World's texture coordinates come from {mapping.name}; Glint takes an Environment Texture with at most a Mapping node's Z rotation"
+        rotation = mapping.inputs["Rotation"].default_value[2]
+    return [0.0, 0.0, 0.0], {"image": os.path.abspath(path), "strength": strength, "rotation": rotation}, None
 
 
 def area_lights(depsgraph):
@@ -124,7 +143,7 @@ def render_request(depsgraph, job, width, height):
     scene = depsgraph.scene
     settings = scene.glint
     warnings = []
-    background, problem = world_background(scene)
+    background, environment, problem = world_background(scene)
     if problem:
         warnings.append(problem)
     soft = sorted(
@@ -162,6 +181,8 @@ def render_request(depsgraph, job, width, height):
         "default_surface": [0.8, 0.8, 0.8],
         "area_lights": area_lights(depsgraph),
     }
+    if environment:
+        request["environment"] = environment
     single_scatter = sorted(
         m.name for m in used_materials(depsgraph) if any(n.type == "BSDF_PRINCIPLED" and n.distribution == "GGX" for n in m.node_tree.nodes)
     )

@@ -26,7 +26,6 @@
 use crate::bsdf::BsdfModel;
 use crate::lights::Lights;
 use crate::scene::Scene;
-use glam::Vec3;
 use std::fmt;
 
 /// Whether the kernel follows the scene or does everything.
@@ -56,8 +55,9 @@ pub struct Features {
     pub lamps: usize,
     pub lamp_triangles: usize,
     pub punctual: usize,
-    /// The World is not black.
+    /// The World is not black: a colour, or an environment image.
     pub background: bool,
+    pub environment: bool,
     /// Some emitter emits from its front face only.
     pub one_sided_emission: bool,
     /// Materials with textures, and the images they share.
@@ -82,7 +82,8 @@ impl Features {
         }
         let mut f = Features {
             punctual: scene.punctual.len(),
-            background: scene.background != Vec3::ZERO,
+            background: scene.has_world(),
+            environment: scene.environment.is_some(),
             images: scene.images.len(),
             vertex_colors: !scene.attributes.color.is_empty(),
             ..Features::default()
@@ -127,7 +128,9 @@ impl fmt::Display for Features {
         if self.punctual > 0 {
             on.push(format!("punctual={}", self.punctual));
         }
-        if self.background {
+        if self.environment {
+            on.push("environment map".into());
+        } else if self.background {
             on.push("background".into());
         }
         if self.one_sided_emission {
@@ -216,6 +219,7 @@ impl fmt::Display for Kernel {
 
 #[cfg(test)]
 mod tests {
+    use glam::Vec3;
     use super::*;
     use crate::camera::Camera;
     use crate::material::Material;

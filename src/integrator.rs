@@ -3,12 +3,14 @@
 //!   L = L_emit + L_dir + L_indir
 //!
 //! * L_emit: emission seen directly, added at the camera ray's hit only,
-//!   and the World (`Scene::background`) seen by any ray that escapes.
+//!   and the World (environment.rs) seen by a camera ray that escapes.
 //! * L_dir: next-event estimation. A light is picked by power (lights.rs;
 //!   the seed sampled emitters by area, 1/A_total). On an emitting triangle
 //!   a point x' has pdf_A = π·lum(Le)/P_total and is joined by a shadow ray:
 //!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
 //!   A point, spot or sun light gives f · cosθ · E / p_pick (punctual.rs).
+//!   The World gives L_w(wi) · f · cosθ / (p_pick · pdf(wi)), wi drawn from
+//!   its own distribution, with a shadow ray to infinity.
 //! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
 //!   that light was already counted by L_dir.
@@ -35,7 +37,8 @@ use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::scene::Scene;
 use crate::shading::{self, Barycentric};
-use glam::Vec3;
+use crate::environment;
+use glam::{Vec2, Vec3};
 
 pub const RR_START_DEPTH: u32 = 3;
 const RR_MAX_SURVIVAL: f32 = 0.95;
@@ -219,12 +222,65 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
     match ctx.lights.sample(ctx.scene, u_pick, u) {
         None => Vec3::ZERO,
+        Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
         Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rng, rays),
         Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
         Some(_) => Vec3::ZERO,
     }
+}
+
+/// Solid-angle pdf of light sampling reaching the World along `dir` from
+/// a point with geometric normal `ng`.
+fn world_pdf(ctx: &Context, ng: Vec3, dir: Vec3) -> f32 {
+    let pdf = match &ctx.scene.environment {
+        Some(map) => map.pdf(dir),
+        None => environment::uniform_pdf(ng, dir),
+    };
+    ctx.lights.world_probability * pdf
+}
+
+/// One direction toward the World and its shadow ray.
+#[allow(clippy::too_many_arguments)]
+fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let (wi, pdf) = match &ctx.scene.environment {
+        Some(map) => match map.sample(u) {
+            Some(s) => s,
+            None => return Vec3::ZERO,
+        },
+        None => environment::sample_uniform(si.ng, u),
+    };
+    if !(wi.dot(si.ng) > 0.0 && pdf > 0.0) {
+        return Vec3::ZERO;
+    }
+    let wi_local = si.frame.to_local(wi);
+    let f = bsdf.eval(wo, wi_local);
+    let le = ctx.scene.world_radiance(wi);
+    if f == Vec3::ZERO || le == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    rays.shadow += 1;
+    if ctx.occluded(si.spawn_origin(wi), wi, f32::INFINITY, u32::MAX, rng) {
+        return Vec3::ZERO;
+    }
+    let p_light = probability * pdf;
+    let weight = if mis { power_heuristic(p_light, bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    le * f * (weight * wi_local.z / p_light)
+}
+
+/// The World seen by a ray that escapes: whole on camera rays and after a
+/// delta lobe; MIS-weighted against light sampling on other BSDF rays
+/// (`ng` is the normal where the ray left); none under the seed's rule.
+fn world_seen(ctx: &Context, dir: Vec3, depth: u32, bsdf_pdf: f32, from_delta: bool, ng: Vec3, mis: bool) -> Vec3 {
+    let le = ctx.scene.world_radiance(dir);
+    if depth == 0 || from_delta || le == Vec3::ZERO {
+        return le;
+    }
+    if !mis {
+        return Vec3::ZERO;
+    }
+    le * power_heuristic(bsdf_pdf, world_pdf(ctx, ng, dir))
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick: a
@@ -320,6 +376,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     // whether it came from a delta lobe (which light sampling cannot match).
     let mut bsdf_pdf = 0.0f32;
     let mut from_delta = false;
+    // Geometric normal where the current ray left a surface.
+    let mut from_ng = Vec3::ZERO;
     rays.camera += 1;
     for depth in 0..max_depth {
         let hit = ctx.intersect(o, d, rng);
@@ -331,10 +389,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             let material = &ctx.scene.materials[tri.material as usize];
             l += beta * emission_seen(ctx, material, material.emitted(cos_light < 0.0), lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
         }
-        // Nothing is lit by the background through light sampling (yet),
-        // so every ray that escapes takes it whole.
         let Some(hit) = hit else {
-            l += beta * ctx.scene.background;
+            l += beta * world_seen(ctx, d, depth, bsdf_pdf, from_delta, from_ng, settings.mis);
             break;
         };
         let si = SurfaceHit::new(ctx.scene, &hit, d);
@@ -346,7 +402,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let wo = si.frame.to_local(-d);
         let bsdf = B::new(&si.surface, wo);
         let can_extend = depth + 1 < max_depth;
-        if AREA || PUNCTUAL {
+        if AREA || PUNCTUAL || ctx.lights.world_probability > 0.0 {
             l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);
         }
 
@@ -372,6 +428,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         o = si.spawn_origin(wi);
         d = wi;
+        from_ng = si.ng;
         rays.bounce += 1;
     }
     l

@@ -2,6 +2,7 @@
 //! gathered from the command line and a render request, turned into
 //! everything the renderer needs. Shared by `glint render` and `glint watch`.
 
+use crate::environment::EnvironmentMap;
 use crate::bsdf::BsdfModel;
 use crate::features::FeatureMode;
 use crate::lamps::AreaLight;
@@ -33,6 +34,8 @@ pub struct JobOptions {
     pub bsdf: Option<BsdfModel>,
     pub two_sided_emission: Option<bool>,
     pub features: Option<FeatureMode>,
+    /// An environment image for the World (replaces `background`).
+    pub environment: Option<crate::request::EnvironmentRequest>,
 }
 
 impl JobOptions {
@@ -53,6 +56,7 @@ impl JobOptions {
             bsdf: self.bsdf.or(f.bsdf),
             two_sided_emission: self.two_sided_emission.or(f.two_sided_emission),
             features: self.features.or(f.features),
+            environment: self.environment.or(f.environment),
         }
     }
 }
@@ -73,6 +77,7 @@ impl From<&RenderRequest> for JobOptions {
             bsdf: r.bsdf,
             two_sided_emission: r.two_sided_emission,
             features: None,
+            environment: r.environment.clone(),
         }
     }
 }
@@ -128,9 +133,13 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         (m.base_color, m.metallic, m.specular) = (Vec3::from(colour), 0.0, 0.0);
     }
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
+    if let Some(env) = &options.environment {
+        let map = EnvironmentMap::load(&env.image, env.strength, env.rotation).map_err(|e| format!("{name}: {e}"))?;
+        scene.environment = Some(map);
+    }
     // A previewed asset without lights is lit by a white World.
     let unlit = scene.punctual.is_empty() && !scene.materials.iter().any(|m| m.is_emissive());
-    if options.camera.as_deref() == Some(loader::AUTO_CAMERA) && options.background.is_none() && unlit {
+    if options.camera.as_deref() == Some(loader::AUTO_CAMERA) && options.background.is_none() && options.environment.is_none() && unlit {
         scene.background = Vec3::ONE;
     }
     let (width, height) = resolution(options.width, options.height, scene.camera.aspect_ratio);

@@ -17,6 +17,9 @@ pub struct Lights {
     distribution: Distribution1D,
     /// Σ of the lights' powers (luminance-weighted watts).
     total_power: f64,
+    /// Probability of picking the World (the distribution's last entry); 0
+    /// when it is black.
+    pub world_probability: f32,
 }
 
 /// What light sampling picked.
@@ -24,6 +27,8 @@ pub enum LightChoice {
     Area(LightSample),
     /// Scene punctual light `index`, picked with this probability.
     Punctual { index: usize, probability: f32 },
+    /// The World (environment.rs), picked with this probability.
+    World { probability: f32 },
 }
 
 /// A point on an emitter.
@@ -47,12 +52,18 @@ impl Lights {
             .map(|(i, t)| (i as u32, std::f64::consts::PI * t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64))
             .filter(|&(_, power)| power > 0.0)
             .unzip();
-        if !scene.punctual.is_empty() {
-            let radius = scene_radius(scene);
-            powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
+        let radius = scene_radius(scene);
+        powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
+        let world = scene.has_world();
+        if world {
+            // What crosses the scene's bounding sphere from a World of that
+            // mean radiance: π·(πr²)·L.
+            let mean = scene.environment.as_ref().map_or(scene.background, |m| m.mean);
+            powers.push(std::f64::consts::PI * std::f64::consts::PI * (radius as f64).powi(2) * luminance(mean) as f64);
         }
         let distribution = Distribution1D::new(powers);
-        Lights { total_power: distribution.total(), triangles, distribution }
+        let world_probability = if world && !distribution.is_empty() { distribution.probability(distribution.len() - 1) as f32 } else { 0.0 };
+        Lights { total_power: distribution.total(), triangles, distribution, world_probability }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -69,6 +80,9 @@ impl Lights {
             return None;
         }
         let pick = self.distribution.sample(u_pick);
+        if self.world_probability > 0.0 && pick == self.distribution.len() - 1 {
+            return Some(LightChoice::World { probability: self.world_probability });
+        }
         if pick >= self.triangles.len() {
             let probability = self.distribution.probability(pick) as f32;
             return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });
@@ -84,7 +98,7 @@ impl Lights {
 }
 
 /// Radius of a sphere about the bounds' centre that holds every surface,
-/// where the sun's power is counted (at least 1 m).
+/// where the sun's and the World's power is counted (at least 1 m).
 fn scene_radius(scene: &Scene) -> f32 {
     let (lo, hi) = scene.triangles.iter().flat_map(|t| t.p).fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(p), hi.max(p)));
     if lo.x > hi.x { 1.0 } else { (0.5 * (hi - lo).length()).max(1.0) }

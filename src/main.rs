@@ -10,6 +10,7 @@ use glint::loader;
 use glint::output;
 use glint::progressive::render_progressive;
 use glint::render::{render_pass, Film, PassStats};
+use glint::request::EnvironmentRequest;
 use glint::request::RenderRequest;
 use glint::watch::WatchOptions;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -78,6 +79,17 @@ struct RenderOptions {
     /// World radiance R,G,B in W·sr⁻¹·m⁻² seen by rays that leave the scene [default: black].
     #[arg(long, value_delimiter = ',', num_args = 3)]
     background: Option<Vec<f32>>,
+    /// World as an equirectangular environment image (HDR, EXR, PNG, JPEG),
+    /// mapped as Blender's Environment Texture; replaces --background.
+    #[arg(long)]
+    environment: Option<PathBuf>,
+    /// Strength the environment image is multiplied by [default: 1].
+    #[arg(long, requires = "environment")]
+    environment_strength: Option<f32>,
+    /// Turn the environment about the up axis, in degrees (Blender's
+    /// Mapping node Z rotation) [default: 0].
+    #[arg(long, requires = "environment")]
+    environment_rotation: Option<f32>,
     /// Kernel: the one the scene's features need, or the general one that
     /// does everything (same image for the same seed; for comparison) [default: auto].
     #[arg(long, value_parser = ["auto", "all"])]
@@ -100,6 +112,11 @@ impl RenderOptions {
             camera: self.camera.clone(),
             scene_index: self.scene_index,
             background: self.background.as_ref().map(|b| [b[0], b[1], b[2]]),
+            environment: self.environment.as_ref().map(|image| EnvironmentRequest {
+                image: image.clone(),
+                strength: self.environment_strength.unwrap_or(1.0),
+                rotation: self.environment_rotation.unwrap_or(0.0).to_radians(),
+            }),
             bsdf: self.bsdf.as_deref().map(|b| if b == "seed" { BsdfModel::Seed } else { BsdfModel::Principled }),
             two_sided_emission: None,
             features: self.features.as_deref().map(|f| if f == "all" { FeatureMode::All } else { FeatureMode::Auto }),

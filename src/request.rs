@@ -59,6 +59,27 @@ pub struct RenderRequest {
     /// default (white metal): Cycles renders them with its default surface,
     /// a diffuse BSDF of 0.8 grey.
     pub default_surface: Option<[f32; 3]>,
+    /// The World as an environment image (replaces `background`).
+    pub environment: Option<EnvironmentRequest>,
+}
+
+/// Blender's Environment Texture: an equirectangular image × the
+/// Background's strength, turned by the Mapping node's Z rotation.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentRequest {
+    /// HDR, EXR, PNG or JPEG file; a relative path is relative to the
+    /// request's folder.
+    pub image: std::path::PathBuf,
+    #[serde(default = "one")]
+    pub strength: f32,
+    /// Radians about Blender's Z axis.
+    #[serde(default)]
+    pub rotation: f32,
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 impl RenderRequest {
@@ -96,6 +117,9 @@ impl RenderRequest {
         if self.background.is_some_and(|b| b.iter().any(|c| !(c.is_finite() && *c >= 0.0))) {
             return Err("background must be three finite numbers ≥ 0".into());
         }
+        if self.environment.as_ref().is_some_and(|e| !(e.strength.is_finite() && e.strength >= 0.0 && e.rotation.is_finite())) {
+            return Err("environment strength must be ≥ 0 and rotation finite".into());
+        }
         if self.default_surface.is_some_and(|b| b.iter().any(|c| !(0.0..=1.0).contains(c))) {
             return Err("default_surface must be three numbers in [0, 1]".into());
         }
@@ -123,6 +147,8 @@ mod tests {
             (br#"{"area_lights": [{"shape": "STAR", "size": [1,1], "matrix": [], "color": [1,1,1], "power": 1}]}"#, "STAR"),
             (br#"{"width": 64"#, "EOF"),
             (br#"{"default_surface": [2, 0, 0]}"#, "default_surface"),
+            (br#"{"environment": {"image": "sky.hdr", "strength": -1}}"#, "environment strength"),
+            (br#"{"environment": {"strength": 1}}"#, "missing field `image`"),
         ] {
             let e = RenderRequest::parse(bad).unwrap_err();
             assert!(e.contains(why) && !e.contains('\n'), "{e}");

@@ -102,6 +102,20 @@ impl Distribution1D {
         i.min(self.cdf.len() - 1)
     }
 
+    /// `sample`, and where u fell inside the picked item's interval,
+    /// rescaled to [0, 1): a fresh uniform number for the next choice.
+    pub fn sample_remapped(&self, u: f32) -> (usize, f32) {
+        let i = self.sample(u);
+        let prev = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let width = self.cdf[i] - prev;
+        let rest = if width > 0.0 { ((u as f64 * self.total - prev) / width) as f32 } else { 0.5 };
+        (i, rest.clamp(0.0, 1.0 - f32::EPSILON))
+    }
+
+    pub fn len(&self) -> usize {
+        self.cdf.len()
+    }
+
     pub fn probability(&self, i: usize) -> f64 {
         let prev = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         (self.cdf[i] - prev) / self.total

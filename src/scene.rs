@@ -2,6 +2,7 @@
 //! World space is glTF's: metres, Y up, right-handed.
 
 use crate::camera::Camera;
+use crate::environment::EnvironmentMap;
 use crate::material::Material;
 use crate::punctual::PunctualLight;
 use crate::texture::Image;
@@ -54,6 +55,8 @@ pub struct Scene {
     /// Radiance (W·sr⁻¹·m⁻²) arriving from every direction no surface
     /// covers: a plain-colour World. Black by default, as in glTF.
     pub background: Vec3,
+    /// An environment image instead of the plain colour.
+    pub environment: Option<EnvironmentMap>,
     /// Point, spot and sun lights.
     pub punctual: Vec<PunctualLight>,
     /// One line each; the CLI prints them, the daemon logs them.
@@ -74,10 +77,25 @@ impl Scene {
             attributes: VertexAttributes::default(),
             images: Vec::new(),
             background: Vec3::ZERO,
+            environment: None,
             punctual: Vec::new(),
             warnings: Vec::new(),
             bytes_read: 0,
         }
+    }
+
+    /// Radiance of the World along `dir` (unit).
+    #[inline]
+    pub fn world_radiance(&self, dir: Vec3) -> Vec3 {
+        match &self.environment {
+            Some(map) => map.radiance(dir),
+            None => self.background,
+        }
+    }
+
+    /// Whether the World gives any light.
+    pub fn has_world(&self) -> bool {
+        self.environment.as_ref().map_or(self.background != Vec3::ZERO, |m| m.mean != Vec3::ZERO)
     }
 
     /// Whether a triangle is lamp geometry rather than a surface.

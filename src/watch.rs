@@ -293,7 +293,10 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
         RenderRequest::default()
     };
     let job_id = request.job.as_deref();
-    let options = JobOptions::from(&request).or(defaults);
+    let mut options = JobOptions::from(&request).or(defaults);
+    if let Some(env) = options.environment.as_mut() {
+        env.image = paths.dir.join(&env.image);
+    }
     let scene_path = paths.scene(&request);
     let output_path = request.output.as_ref().map_or(paths.default_output.clone(), |o| paths.dir.join(o));
     let job = match job::prepare(Some(&scene_path), &options, (&request).into()) {

@@ -124,3 +124,15 @@ fn the_features_line_and_the_general_kernel() {
     assert!(!o.status.success() && stderr(&o).contains("--features"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_missing_environment_image_is_a_one_line_error() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_glint"))
+        .args(["render", "--environment", "/nonexistent/sky.hdr", "--spp", "1", "--width", "8", "--output"])
+        .arg(std::env::temp_dir().join("glint-env-missing.exr"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.lines().count() == 1 && err.contains("/nonexistent/sky.hdr"), "{err}");
+}

@@ -17,6 +17,7 @@ use crate::scene::{Scene, Triangle, VertexAttributes};
 use accessor::{read_floats, read_indices, BinChunk, Buffers, FloatData};
 use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use images::{ImageCache, TextureRef};
+pub use images::decode as decode_image;
 use gltf::json::accessor::Type;
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
