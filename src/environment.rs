@@ -31,8 +31,6 @@ pub struct EnvironmentMap {
     pub rotation: f32,
     rows: Distribution1D,
     columns: Vec<Distribution1D>,
-    /// Σ of the sampling weights (for the pdf of a texel).
-    total: f64,
     /// Mean radiance over the sphere (for the light's power).
     pub mean: Vec3,
 }
@@ -71,17 +69,16 @@ impl EnvironmentMap {
         let floor = if floor > 0.0 { floor } else { 1.0 };
         let columns: Vec<Distribution1D> = weights.chunks(w as usize).map(|row| Distribution1D::new(row.iter().map(|v| v + floor))).collect();
         let rows = Distribution1D::new(columns.iter().map(|c| c.total()));
-        let total = rows.total();
-        EnvironmentMap { image, encoding, strength, rotation, rows, columns, total, mean }
+        EnvironmentMap { image, encoding, strength, rotation, rows, columns, mean }
     }
 
-    fn to_blender(&self, g: Vec3) -> Vec3 {
+    fn blender_direction(&self, g: Vec3) -> Vec3 {
         let b = Vec3::new(g.x, -g.z, g.y);
         let (s, c) = self.rotation.sin_cos();
         Vec3::new(c * b.x - s * b.y, s * b.x + c * b.y, b.z)
     }
 
-    fn from_blender(&self, b: Vec3) -> Vec3 {
+    fn gltf_direction(&self, b: Vec3) -> Vec3 {
         let (s, c) = (-self.rotation).sin_cos();
         let b = Vec3::new(c * b.x - s * b.y, s * b.x + c * b.y, b.z);
         Vec3::new(b.x, b.z, -b.y)
@@ -89,14 +86,14 @@ impl EnvironmentMap {
 
     /// Image coordinates (top row v = 0) of a unit direction.
     pub fn uv(&self, dir: Vec3) -> Vec2 {
-        let b = self.to_blender(dir);
+        let b = self.blender_direction(dir);
         Vec2::new(0.5 - b.y.atan2(b.x) / (2.0 * PI), b.z.clamp(-1.0, 1.0).acos() / PI)
     }
 
     fn direction(&self, uv: Vec2) -> Vec3 {
         let phi = 2.0 * PI * (0.5 - uv.x);
         let theta = PI * uv.y;
-        self.from_blender(Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()))
+        self.gltf_direction(Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()))
     }
 
     /// Radiance arriving from direction `dir` (W·sr⁻¹·m⁻²).
@@ -111,28 +108,28 @@ impl EnvironmentMap {
         let (col, uu) = self.columns[row].sample_remapped(u.x);
         let uv = Vec2::new((col as f32 + uu) / self.image.width as f32, (row as f32 + v) / self.image.height as f32);
         let dir = self.direction(uv);
-        let pdf = self.pdf(dir);
+        let pdf = self.texel_pdf(col, row, uv.y);
         (pdf > 0.0 && dir.is_finite()).then_some((dir, pdf))
     }
 
-    /// Solid-angle pdf of `sample` producing `dir`: the texel's share of
-    /// the table over its solid angle, (2π/w)(π/h) sinθ.
+    /// Solid-angle pdf of `sample` producing `dir`.
     pub fn pdf(&self, dir: Vec3) -> f32 {
         let uv = self.uv(dir);
         let (w, h) = (self.image.width, self.image.height);
-        let x = ((uv.x.rem_euclid(1.0) * w as f32) as u32).min(w - 1);
-        let y = ((uv.y * h as f32) as u32).min(h - 1);
-        let sin_theta = (PI * uv.y).sin();
+        let x = ((uv.x.rem_euclid(1.0) * w as f32) as usize).min(w as usize - 1);
+        let y = ((uv.y * h as f32) as usize).min(h as usize - 1);
+        self.texel_pdf(x, y, uv.y)
+    }
+
+    /// The pdf at a point of texel (x, y) at image height v: the texel's
+    /// share of the table over its solid angle, (2π/w)(π/h) sinθ.
+    fn texel_pdf(&self, x: usize, y: usize, v: f32) -> f32 {
+        let sin_theta = (PI * v).sin();
         if !(sin_theta > 0.0) {
             return 0.0;
         }
-        let share = (self.columns[y as usize].probability(x as usize) * self.rows.probability(y as usize)) as f32;
-        share * (w * h) as f32 / (2.0 * PI * PI * sin_theta)
-    }
-
-    /// Sampling weight total, for tests.
-    pub fn table_total(&self) -> f64 {
-        self.total
+        let share = (self.columns[y].probability(x) * self.rows.probability(y)) as f32;
+        share * (self.image.width * self.image.height) as f32 / (2.0 * PI * PI * sin_theta)
     }
 }
 

@@ -173,8 +173,7 @@ impl SurfaceHit {
         let face = tri.cross().normalize();
         let front_face = face.dot(dir) < 0.0;
         let ng = if front_face { face } else { -face };
-        let b0 = 1.0 - hit.b1 - hit.b2;
-        let mut ns = (tri.n[0] * b0 + tri.n[1] * hit.b1 + tri.n[2] * hit.b2).normalize_or_zero();
+        let mut ns = b.mix(&tri.n).normalize_or_zero();
         if ns != Vec3::ZERO {
             ns = shading::mapped_normal(scene, material, hit.triangle, b, ns);
         }

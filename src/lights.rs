@@ -52,14 +52,15 @@ impl Lights {
             .map(|(i, t)| (i as u32, std::f64::consts::PI * t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64))
             .filter(|&(_, power)| power > 0.0)
             .unzip();
-        let radius = scene_radius(scene);
-        powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
         let world = scene.has_world();
-        if world {
-            // What crosses the scene's bounding sphere from a World of that
-            // mean radiance: π·(πr²)·L.
-            let mean = scene.environment.as_ref().map_or(scene.background, |m| m.mean);
-            powers.push(std::f64::consts::PI * std::f64::consts::PI * (radius as f64).powi(2) * luminance(mean) as f64);
+        if world || !scene.punctual.is_empty() {
+            let radius = scene_radius(scene);
+            powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
+            if world {
+                // What crosses the scene's bounding sphere from a World of
+                // that mean radiance: π·(πr²)·L.
+                powers.push(std::f64::consts::PI * std::f64::consts::PI * (radius as f64).powi(2) * luminance(scene.world_mean()) as f64);
+            }
         }
         let distribution = Distribution1D::new(powers);
         let world_probability = if world && !distribution.is_empty() { distribution.probability(distribution.len() - 1) as f32 } else { 0.0 };
@@ -100,7 +101,7 @@ impl Lights {
 /// Radius of a sphere about the bounds' centre that holds every surface,
 /// where the sun's and the World's power is counted (at least 1 m).
 fn scene_radius(scene: &Scene) -> f32 {
-    let (lo, hi) = scene.triangles.iter().flat_map(|t| t.p).fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = crate::scene::bounds(&scene.triangles);
     if lo.x > hi.x { 1.0 } else { (0.5 * (hi - lo).length()).max(1.0) }
 }
 

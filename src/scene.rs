@@ -8,6 +8,11 @@ use crate::punctual::PunctualLight;
 use crate::texture::Image;
 use glam::{Vec2, Vec3, Vec4};
 
+/// Axis-aligned bounds (min, max) of triangles; min > max when there are none.
+pub fn bounds(triangles: &[Triangle]) -> (Vec3, Vec3) {
+    triangles.iter().flat_map(|t| t.p).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)))
+}
+
 #[derive(Clone, Debug)]
 pub struct Triangle {
     /// World positions, counter-clockwise seen from the front face.
@@ -93,9 +98,14 @@ impl Scene {
         }
     }
 
+    /// Mean radiance of the World over the sphere of directions.
+    pub fn world_mean(&self) -> Vec3 {
+        self.environment.as_ref().map_or(self.background, |m| m.mean)
+    }
+
     /// Whether the World gives any light.
     pub fn has_world(&self) -> bool {
-        self.environment.as_ref().map_or(self.background != Vec3::ZERO, |m| m.mean != Vec3::ZERO)
+        self.world_mean() != Vec3::ZERO
     }
 
     /// Whether a triangle is lamp geometry rather than a surface.

@@ -8,6 +8,7 @@ use crate::material::{AlphaMode, Material, Surface};
 use crate::scene::Scene;
 use crate::texture::Encoding;
 use glam::{Vec2, Vec3, Vec4};
+use std::ops::{Add, Mul};
 
 /// Barycentric weights (b0, b1, b2) of a hit on a triangle.
 #[derive(Clone, Copy, Debug)]
@@ -18,23 +19,21 @@ impl Barycentric {
         Barycentric([1.0 - b1 - b2, b1, b2])
     }
 
-    fn mix2(&self, v: &[Vec2; 3]) -> Vec2 {
-        v[0] * self.0[0] + v[1] * self.0[1] + v[2] * self.0[2]
-    }
-
-    fn mix4(&self, v: &[Vec4; 3]) -> Vec4 {
+    /// The value at this point of a per-corner attribute.
+    #[inline]
+    pub fn mix<T: Copy + Mul<f32, Output = T> + Add<Output = T>>(&self, v: &[T; 3]) -> T {
         v[0] * self.0[0] + v[1] * self.0[1] + v[2] * self.0[2]
     }
 }
 
 fn texture_coordinates(scene: &Scene, triangle: u32, b: Barycentric) -> [Vec2; 2] {
     let uv = &scene.attributes.uv;
-    let at = |set: usize| uv[set].get(triangle as usize).map_or(Vec2::ZERO, |c| b.mix2(c));
+    let at = |set: usize| uv[set].get(triangle as usize).map_or(Vec2::ZERO, |c| b.mix(c));
     [at(0), at(1)]
 }
 
 fn vertex_color(scene: &Scene, triangle: u32, b: Barycentric) -> Vec4 {
-    scene.attributes.color.get(triangle as usize).map_or(Vec4::ONE, |c| b.mix4(c))
+    scene.attributes.color.get(triangle as usize).map_or(Vec4::ONE, |c| b.mix(c))
 }
 
 /// Whether anything at this point differs from the material's factors.
@@ -115,7 +114,7 @@ pub fn stops_ray(scene: &Scene, triangle: u32, b1: f32, b2: f32, u: &mut impl Fn
 pub fn mapped_normal(scene: &Scene, m: &Material, triangle: u32, b: Barycentric, n: Vec3) -> Vec3 {
     let Some((slot, scale)) = m.textures.as_ref().and_then(|t| t.normal.as_ref()) else { return n };
     let Some(corners) = scene.attributes.tangent.get(triangle as usize) else { return n };
-    let t4 = b.mix4(corners);
+    let t4 = b.mix(corners);
     let sign = if t4.w < 0.0 { -1.0 } else { 1.0 };
     // Gram-Schmidt: the interpolated tangent is not quite orthogonal to n.
     let t = (t4.truncate() - n * n.dot(t4.truncate())).normalize_or_zero();

@@ -6,7 +6,7 @@
 //! material renders with its factors, as Blender shows a missing image.
 
 use super::accessor::Buffers;
-use super::buffers;
+use super::{buffers, finite_or};
 use crate::texture::{Image, Sampler, TextureSlot, Texels, UvTransform, Wrap};
 use glam::Vec2;
 use gltf::json::extensions::texture::TextureTransform;
@@ -46,10 +46,6 @@ fn wrap(mode: &Checked<WrappingMode>) -> Wrap {
         Checked::Valid(WrappingMode::MirroredRepeat) => Wrap::MirroredRepeat,
         _ => Wrap::Repeat,
     }
-}
-
-fn finite_or(v: f32, default: f32) -> f32 {
-    if v.is_finite() { v } else { default }
 }
 
 impl ImageCache {

@@ -182,7 +182,7 @@ fn load_parts(json: &[u8], bin: Option<BinChunk>, base_dir: Option<&Path>, optio
     builder.walk_scene(options.scene_index)?;
     let camera = match options.camera.as_deref() {
         Some(AUTO_CAMERA) => {
-            let (min, max) = builder.triangles.iter().flat_map(|t| t.p).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            let (min, max) = crate::scene::bounds(&builder.triangles);
             Camera::framing(min, max)?
         }
         wanted => builder.pick_camera(wanted)?,
@@ -448,11 +448,11 @@ impl<'a> Builder<'a> {
     /// A vertex attribute of a primitive, if it has it, checked against
     /// the vertex count.
     fn attribute(&mut self, prim: &gltf::json::mesh::Primitive, semantic: Semantic, types: &[Type], vertices: usize) -> Result<Option<FloatData>, String> {
-        let name = format!("{semantic:?}");
-        let Some(index) = prim.attributes.get(&Checked::Valid(semantic)) else { return Ok(None) };
+        let Some(index) = prim.attributes.get(&Checked::Valid(semantic.clone())) else { return Ok(None) };
         let data = read_floats(&mut self.buffers, index.value(), types)?;
         if data.count() != vertices {
-            return Err(format!("{name} has {} elements, POSITION {vertices}", data.count()));
+            // glTF's own name: NORMAL, TEXCOORD_0, COLOR_0, TANGENT.
+            return Err(format!("{} has {} elements, POSITION {vertices}", semantic.to_string(), data.count()));
         }
         Ok(Some(data))
     }
@@ -668,11 +668,10 @@ fn generated_tangents(indices: &[u32], positions: &FloatData, normals: Option<&F
             .collect(),
     };
     let corner_uvs: Vec<[f32; 2]> = indices.iter().map(|&i| uv.get2(i as usize)).collect();
-    let corners: Vec<u32> = (0..indices.len() as u32).collect();
-    tangents::mikktspace(&corners, &corner_positions, &corner_normals, &corner_uvs)
+    tangents::mikktspace(&corner_positions, &corner_normals, &corner_uvs)
 }
 
-fn finite_or(v: f32, default: f32) -> f32 {
+pub(crate) fn finite_or(v: f32, default: f32) -> f32 {
     if v.is_finite() { v } else { default }
 }
 

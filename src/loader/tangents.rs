@@ -6,24 +6,25 @@
 
 use bevy_mikktspace::{generate_tangents, Geometry, TangentSpace};
 
-struct Primitive<'a> {
-    indices: &'a [u32],
-    positions: &'a [[f32; 3]],
-    normals: &'a [[f32; 3]],
-    uvs: &'a [[f32; 2]],
-    /// One tangent per index (corner), w = the bitangent's sign.
+/// A triangle list by corner: triangle k is corners 3k, 3k+1, 3k+2
+/// (MikkTSpace welds equal corners itself).
+struct Primitive {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    uvs: Vec<[f32; 2]>,
+    /// One tangent per corner, w = the bitangent's sign.
     out: Vec<[f32; 4]>,
 }
 
-impl Primitive<'_> {
+impl Primitive {
     fn vertex(&self, face: usize, vert: usize) -> usize {
-        self.indices[face * 3 + vert] as usize
+        face * 3 + vert
     }
 }
 
-impl Geometry for Primitive<'_> {
+impl Geometry for Primitive {
     fn num_faces(&self) -> usize {
-        self.indices.len() / 3
+        self.out.len() / 3
     }
     fn num_vertices_of_face(&self, _face: usize) -> usize {
         3
@@ -44,20 +45,27 @@ impl Geometry for Primitive<'_> {
     }
 }
 
-/// Object-space tangents of an indexed triangle list, one per corner
-/// (`indices.len()` entries; zero where the algorithm finds none, which
-/// shading treats as "no normal map here"). Non-finite inputs are zeroed
-/// first. `indices` must be in range and a multiple of 3 long.
-pub fn mikktspace(indices: &[u32], positions: &[[f32; 3]], normals: &[[f32; 3]], uvs: &[[f32; 2]]) -> Vec<[f32; 4]> {
-    let clean3 = |v: &[[f32; 3]]| v.iter().map(|p| if p.iter().all(|c| c.is_finite()) { *p } else { [0.0; 3] }).collect::<Vec<_>>();
-    let positions = clean3(positions);
-    let normals = clean3(normals);
-    let uvs: Vec<[f32; 2]> = uvs.iter().map(|p| if p.iter().all(|c| c.is_finite()) { *p } else { [0.0; 2] }).collect();
-    let mut primitive = Primitive { indices, positions: &positions, normals: &normals, uvs: &uvs, out: vec![[0.0; 4]; indices.len()] };
+/// Zero for a non-finite value.
+fn finite<const N: usize>(v: [f32; N]) -> [f32; N] {
+    if v.iter().all(|c| c.is_finite()) { v } else { [0.0; N] }
+}
+
+/// Object-space tangents of a triangle list given by corner (all three
+/// slices of one length, a multiple of 3): one per corner, zero where the
+/// algorithm finds none, which shading treats as "no normal map here".
+/// Non-finite inputs are zeroed first.
+pub fn mikktspace(positions: &[[f32; 3]], normals: &[[f32; 3]], uvs: &[[f32; 2]]) -> Vec<[f32; 4]> {
+    let corners = positions.len();
+    let mut primitive = Primitive {
+        positions: positions.iter().copied().map(finite).collect(),
+        normals: normals.iter().copied().map(finite).collect(),
+        uvs: uvs.iter().copied().map(finite).collect(),
+        out: vec![[0.0; 4]; corners],
+    };
     // The port is safe Rust and returns no errors; a panic inside it would
     // still be a bug of ours to report, not a reason to take the renderer down.
     let ok = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| generate_tangents(&mut primitive).is_ok())).unwrap_or(false);
-    if ok { primitive.out } else { vec![[0.0; 4]; indices.len()] }
+    if ok { primitive.out } else { vec![[0.0; 4]; corners] }
 }
 
 #[cfg(test)]
@@ -69,24 +77,25 @@ mod tests {
     /// bitangent sign makes B = sign·(N × T) point along +v, i.e. −Y.
     #[test]
     fn tangent_follows_u_and_the_sign_follows_v() {
-        let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
-        let normals = [[0.0, 0.0, 1.0]; 4];
-        let uvs = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
-        let t = mikktspace(&[0, 1, 2, 0, 2, 3], &positions, &normals, &uvs);
+        let corners = |v: [[f32; 2]; 4]| [0, 1, 2, 0, 2, 3].map(|i| v[i]);
+        let positions = [0, 1, 2, 0, 2, 3].map(|i| [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]][i]);
+        let normals = [[0.0, 0.0, 1.0]; 6];
+        let uvs = corners([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]]);
+        let t = mikktspace(&positions, &normals, &uvs);
         for c in &t {
             assert!((c[0] - 1.0).abs() < 1e-5 && c[1].abs() < 1e-5 && c[2].abs() < 1e-5, "{c:?}");
             assert_eq!(c[3], -1.0, "N × T = +Y is against +v's direction (−Y): {c:?}");
         }
         // Mirrored UVs flip the sign.
-        let mirrored = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-        let t = mikktspace(&[0, 1, 2, 0, 2, 3], &positions, &normals, &mirrored);
+        let mirrored = corners([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+        let t = mikktspace(&positions, &normals, &mirrored);
         assert!(t.iter().all(|c| c[3] == 1.0), "{t:?}");
     }
 
     #[test]
     fn degenerate_and_broken_input_gives_finite_tangents() {
-        let positions = [[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [0.0, 0.0, 0.0]];
-        let t = mikktspace(&[0, 1, 2, 0, 0, 0], &positions, &[[0.0; 3]; 3], &[[f32::INFINITY, 0.0]; 3]);
+        let positions = [[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0; 3]];
+        let t = mikktspace(&positions, &[[0.0; 3]; 6], &[[f32::INFINITY, 0.0]; 6]);
         assert_eq!(t.len(), 6);
         assert!(t.iter().flatten().all(|v| v.is_finite()));
     }

@@ -299,6 +299,10 @@ fn bad_inputs_are_one_line_errors() {
     let mut d = base_doc();
     d["accessors"][0]["type"] = json!("VEC2");
     assert!(load_err(&d).contains("expected one of"));
+    // An attribute whose count is not POSITION's, named as glTF names it.
+    let mut d = base_doc();
+    d["accessors"][1]["count"] = json!(3);
+    assert!(load_err(&d).contains("NORMAL has 3 elements, POSITION 4"), "{}", load_err(&d));
     // Node cycle.
     let mut d = base_doc();
     d["nodes"][1]["children"] = json!([1]);
