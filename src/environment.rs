@@ -108,28 +108,27 @@ impl EnvironmentMap {
         let (col, uu) = self.columns[row].sample_remapped(u.x);
         let uv = Vec2::new((col as f32 + uu) / self.image.width as f32, (row as f32 + v) / self.image.height as f32);
         let dir = self.direction(uv);
-        let pdf = self.texel_pdf(col, row, uv.y);
+        // The pdf of the direction as `pdf` sees it (not of the texel drawn):
+        // rounding can put a sample on its neighbour's side of a texel
+        // edge, and MIS must weigh this sample with what an escaping ray in
+        // the same direction is weighed with.
+        let pdf = self.pdf(dir);
         (pdf > 0.0 && dir.is_finite()).then_some((dir, pdf))
     }
 
-    /// Solid-angle pdf of `sample` producing `dir`.
+    /// Solid-angle pdf of `sample` producing `dir`: the texel's share of
+    /// the table over its solid angle, (2π/w)(π/h) sinθ.
     pub fn pdf(&self, dir: Vec3) -> f32 {
         let uv = self.uv(dir);
         let (w, h) = (self.image.width, self.image.height);
         let x = ((uv.x.rem_euclid(1.0) * w as f32) as usize).min(w as usize - 1);
         let y = ((uv.y * h as f32) as usize).min(h as usize - 1);
-        self.texel_pdf(x, y, uv.y)
-    }
-
-    /// The pdf at a point of texel (x, y) at image height v: the texel's
-    /// share of the table over its solid angle, (2π/w)(π/h) sinθ.
-    fn texel_pdf(&self, x: usize, y: usize, v: f32) -> f32 {
-        let sin_theta = (PI * v).sin();
+        let sin_theta = (PI * uv.y).sin();
         if !(sin_theta > 0.0) {
             return 0.0;
         }
         let share = (self.columns[y].probability(x) * self.rows.probability(y)) as f32;
-        share * (self.image.width * self.image.height) as f32 / (2.0 * PI * PI * sin_theta)
+        share * (w * h) as f32 / (2.0 * PI * PI * sin_theta)
     }
 }
 
