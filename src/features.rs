@@ -12,6 +12,8 @@
 //! * punctual lights: without them light sampling never considers one;
 //! * lamps (Blender area lights, which rays pass through): without them no
 //!   ray is tested against the lamp BVH;
+//! * glass (KHR_materials_transmission): without it the BSDF has no
+//!   transmission lobe to weigh (bsdf/transmission.rs);
 //! * no light at all: no light sampling, no random numbers drawn for it.
 //!
 //! `FeatureMode::All` forces the general kernel (every part on, the BSDF
@@ -69,6 +71,8 @@ pub struct Features {
     pub vertex_colors: bool,
     /// Materials with alphaMode MASK or BLEND: rays test them as they pass.
     pub alpha: usize,
+    /// Materials with some glass (KHR_materials_transmission).
+    pub transmission: usize,
 }
 
 impl Features {
@@ -107,6 +111,7 @@ impl Features {
                 f.normal_maps += t.normal.is_some() as usize;
             }
             f.alpha += m.has_alpha() as usize;
+            f.transmission += m.is_transmissive() as usize;
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
@@ -148,6 +153,9 @@ impl fmt::Display for Features {
         if self.alpha > 0 {
             on.push(format!("alpha={}", self.alpha));
         }
+        if self.transmission > 0 {
+            on.push(format!("glass={}", self.transmission));
+        }
         if on.is_empty() {
             on.push("nothing".into());
         }
@@ -173,6 +181,8 @@ pub struct Kernel {
     /// Rays are tested against the lamp BVH; only with `area` (lamps are
     /// emitting triangles).
     pub lamps: bool,
+    /// The BSDF mixes in glass.
+    pub glass: bool,
 }
 
 impl Kernel {
@@ -182,14 +192,14 @@ impl Kernel {
             BsdfModel::Seed => KernelBsdf::Seed,
         };
         if mode == FeatureMode::All {
-            return Kernel { bsdf: general, area: true, punctual: true, lamps: true };
+            return Kernel { bsdf: general, area: true, punctual: true, lamps: true, glass: true };
         }
         // Both models are exactly Lambert for a non-metal with specular 0.
         let bsdf = if features.ggx { general } else { KernelBsdf::Lambert };
         // The light list decides, not the materials: an emissive triangle
         // of zero power is not sampled and adds nothing.
         let area = !lights.triangles.is_empty();
-        Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0 }
+        Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0, glass: features.transmission > 0 }
     }
 }
 
@@ -201,6 +211,9 @@ impl fmt::Display for Kernel {
             KernelBsdf::Seed => "seed",
         };
         let mut parts = vec![bsdf];
+        if self.glass {
+            parts.push("glass");
+        }
         if self.area {
             parts.push("emitters");
         }
@@ -244,10 +257,10 @@ mod tests {
         assert_eq!((f.emitters, f.emitter_triangles), (1, 1));
         let lights = Lights::new(&s);
         let k = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::Auto);
-        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: false });
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: false, glass: false });
         assert_eq!(f.to_string(), "diffuse, emitters=1 (1 tris), one-sided emission");
         let all = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::All);
-        assert_eq!(all, Kernel { bsdf: KernelBsdf::Principled, area: true, punctual: true, lamps: true });
+        assert_eq!(all, Kernel { bsdf: KernelBsdf::Principled, area: true, punctual: true, lamps: true, glass: true });
     }
 
     #[test]
@@ -259,7 +272,7 @@ mod tests {
         assert!(!f.ggx && !f.metallic, "{f:?}");
         assert_eq!((f.lamps, f.emitters), (1, 0));
         let k = Kernel::choose(&f, &Lights::new(&s), BsdfModel::Seed, FeatureMode::Auto);
-        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: true });
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: true, glass: false });
     }
 
     #[test]

@@ -25,6 +25,13 @@
 //! extend, so its light sample takes the whole weight. A ray from a delta
 //! lobe (a perfect mirror) is the only strategy that can reach the emitter
 //! it hits, so that emission takes weight 1; light samples see f = 0 there.
+//!
+//! Glass transmits: a light behind the surface counts when the BSDF has a
+//! transmission lobe (f is zero below the surface otherwise), every cosine
+//! is |cosθ|, and a direction must leave on the side of the geometric
+//! surface its shading-frame form says (`same_side`). Shadow rays stop at
+//! glass, as in Cycles: light reaches what glass covers only along BSDF
+//! samples (caustics).
 
 use crate::accel::{Accel, Hit};
 use crate::bsdf::Bsdf;
@@ -185,13 +192,29 @@ impl SurfaceHit {
         if ns == Vec3::ZERO || ns.dot(-dir) <= 0.0 {
             ns = ng;
         }
-        let surface = shading::surface_at(scene, material, hit.triangle, b);
+        let mut surface = shading::surface_at(scene, material, hit.triangle, b);
+        if !front_face {
+            // Leaving a closed object through its back face (glTF's front
+            // faces point out).
+            surface.ior = 1.0 / surface.ior;
+        }
         SurfaceHit { p, p_error, ng, frame: Frame::from_normal(ns), front_face, material: tri.material, triangle: hit.triangle, b, surface }
     }
 
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
         offset_origin(self.p, self.p_error, self.ng, w)
     }
+}
+
+/// Whether a direction leaves on the side of the geometric surface its
+/// shading-frame form `local` claims: above for reflection, below for
+/// transmission. With shading normals the two can disagree, and such a
+/// direction would pass through the surface it reflects from (light
+/// leaking through thin walls) or reflect off one it is meant to cross.
+#[inline]
+fn same_side(si: &SurfaceHit, wi: Vec3, local: Vec3) -> bool {
+    let g = wi.dot(si.ng);
+    (g > 0.0 && local.z > 0.0) || (g < 0.0 && local.z < 0.0)
 }
 
 /// Power heuristic (β = 2) weight of a strategy with pdf `a` against `b`.
@@ -250,10 +273,10 @@ fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis:
         },
         None => environment::sample_uniform(si.ng, u),
     };
-    if !(wi.dot(si.ng) > 0.0 && pdf > 0.0) {
+    let wi_local = si.frame.to_local(wi);
+    if !(pdf > 0.0) || !same_side(si, wi, wi_local) {
         return Vec3::ZERO;
     }
-    let wi_local = si.frame.to_local(wi);
     let f = bsdf.eval(wo, wi_local);
     let le = ctx.scene.world_radiance(wi);
     if f == Vec3::ZERO || le == Vec3::ZERO {
@@ -265,7 +288,7 @@ fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis:
     }
     let p_light = probability * pdf;
     let weight = if mis { power_heuristic(p_light, bsdf.pdf(wo, wi_local)) } else { 1.0 };
-    le * f * (weight * wi_local.z / p_light)
+    le * f * (weight * wi_local.z.abs() / p_light)
 }
 
 /// The World seen by a ray that escapes: whole on camera rays and after a
@@ -287,10 +310,10 @@ fn world_seen(ctx: &Context, dir: Vec3, depth: u32, bsdf_pdf: f32, from_delta: b
 #[allow(clippy::too_many_arguments)]
 fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some(inc) = light.incident(si.p) else { return Vec3::ZERO };
-    if inc.wi.dot(si.ng) <= 0.0 {
+    let wi_local = si.frame.to_local(inc.wi);
+    if !same_side(si, inc.wi, wi_local) {
         return Vec3::ZERO;
     }
-    let wi_local = si.frame.to_local(inc.wi);
     let f = bsdf.eval(wo, wi_local);
     if f == Vec3::ZERO {
         return Vec3::ZERO;
@@ -299,7 +322,7 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, l
     if ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, rng) {
         return Vec3::ZERO;
     }
-    f * inc.irradiance * (wi_local.z / probability)
+    f * inc.irradiance * (wi_local.z.abs() / probability)
 }
 
 /// One point on an emitting triangle and its shadow ray.
@@ -312,14 +335,13 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     }
     let dist = dist2.sqrt();
     let wi = to_light / dist;
-    // A light behind the geometric surface would leak through thin walls.
-    if wi.dot(si.ng) <= 0.0 {
+    let wi_local = si.frame.to_local(wi);
+    if !same_side(si, wi, wi_local) {
         return Vec3::ZERO;
     }
     let cos_light = ls.normal.dot(-wi);
     let light_tri = &ctx.scene.triangles[ls.triangle as usize];
     let le = shading::emission_at(ctx.scene, &ctx.scene.materials[light_tri.material as usize], ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0);
-    let wi_local = si.frame.to_local(wi);
     let f = bsdf.eval(wo, wi_local);
     if le == Vec3::ZERO || f == Vec3::ZERO {
         return Vec3::ZERO;
@@ -337,7 +359,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
         return Vec3::ZERO;
     }
     let weight = if mis { power_heuristic(light_pdf_solid_angle(ls.pdf_area, dist2, cos_light), bsdf.pdf(wo, wi_local)) } else { 1.0 };
-    le * f * (weight * wi_local.z * cos_light.abs() / (dist2 * ls.pdf_area))
+    le * f * (weight * wi_local.z.abs() * cos_light.abs() / (dist2 * ls.pdf_area))
 }
 
 /// Emission `le` of `material` seen by a ray at distance `t`, cosine
@@ -410,9 +432,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { break };
         let wi = si.frame.to_world(s.wi);
-        // Directions below the geometric surface (possible with shading
-        // normals) would pass through it.
-        if wi.dot(si.ng) <= 0.0 {
+        if !same_side(&si, wi, s.wi) {
             break;
         }
         beta *= s.weight;

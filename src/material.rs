@@ -15,12 +15,27 @@ pub struct Surface {
     /// KHR_materials_specular specularFactor.
     pub specular: f32,
     pub multiscatter: bool,
+    /// KHR_materials_transmission's factor: the share of the non-metal
+    /// that is glass rather than a specular layer over a diffuse base.
+    pub transmission: f32,
+    /// The relative IOR the ray meets here: the material's IOR entering a
+    /// front face, its inverse leaving through a back face (SurfaceHit).
+    pub ior: f32,
 }
 
 impl Surface {
-    /// No glossy layer at all: not metallic and KHR_materials_specular 0.
+    /// No glossy layer at all: not metallic, not transmissive and
+    /// KHR_materials_specular 0.
     pub fn is_pure_lambert(&self) -> bool {
-        self.metallic <= 0.0 && self.specular <= 0.0
+        self.metallic <= 0.0 && self.specular <= 0.0 && self.transmission <= 0.0
+    }
+
+    /// Normal-incidence reflectance of the dielectric boundary: the IOR's,
+    /// scaled by KHR_materials_specular as Cycles scales it by Specular IOR
+    /// Level (F0 × 2·level, and glTF's factor is 2·level).
+    pub fn dielectric_f0(&self) -> f32 {
+        let r = (self.ior - 1.0) / (self.ior + 1.0);
+        (r * r * self.specular).clamp(0.0, 1.0)
     }
 }
 
@@ -46,6 +61,8 @@ pub struct MaterialTextures {
     pub metallic_roughness: Option<TextureSlot>,
     /// sRGB colour × emissiveFactor × strength.
     pub emissive: Option<TextureSlot>,
+    /// R × transmissionFactor (KHR_materials_transmission).
+    pub transmission: Option<TextureSlot>,
     /// Tangent-space normal map and its scale (normalTexture.scale).
     pub normal: Option<(TextureSlot, f32)>,
 }
@@ -72,6 +89,10 @@ pub struct Material {
     /// Cycles' "Multiscatter GGX" (its default): the glossy lobes get back
     /// the energy single scattering loses. Off: plain "GGX".
     pub multiscatter: bool,
+    /// KHR_materials_transmission transmissionFactor (0 without it).
+    pub transmission: f32,
+    /// KHR_materials_ior (1.5 without it, Blender's default too).
+    pub ior: f32,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,
     /// baseColorFactor's alpha.
@@ -92,6 +113,8 @@ impl Default for Material {
             double_sided: false,
             lamp: false,
             multiscatter: true,
+            transmission: 0.0,
+            ior: 1.5,
             textures: None,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
@@ -100,7 +123,7 @@ impl Default for Material {
 }
 
 impl Material {
-    /// No glossy layer anywhere on it: not metallic and
+    /// No glossy layer anywhere on it: not metallic, not transmissive and
     /// KHR_materials_specular 0 (a metallic texture only scales the factor).
     pub fn is_pure_lambert(&self) -> bool {
         self.surface().is_pure_lambert()
@@ -109,7 +132,20 @@ impl Material {
     /// The factors alone, as at a point with no textures or vertex colours.
     #[inline]
     pub fn surface(&self) -> Surface {
-        Surface { base_color: self.base_color, metallic: self.metallic, roughness: self.roughness, specular: self.specular, multiscatter: self.multiscatter }
+        Surface {
+            base_color: self.base_color,
+            metallic: self.metallic,
+            roughness: self.roughness,
+            specular: self.specular,
+            multiscatter: self.multiscatter,
+            transmission: self.transmission,
+            ior: self.ior,
+        }
+    }
+
+    /// Whether some of it is glass.
+    pub fn is_transmissive(&self) -> bool {
+        self.transmission > 0.0 && self.metallic < 1.0
     }
 
     /// Whether some of its surface can be missing (alpha).

@@ -3,7 +3,7 @@
 //! sample index), so an image is the same for any thread count, and for any
 //! split of its samples into passes up to the rounding of the sums.
 
-use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf};
+use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf, WithGlass};
 use crate::features::{FeatureMode, KernelBsdf};
 use crate::integrator::{radiance, Context, RayCounts};
 use crate::rng::Rng;
@@ -112,10 +112,13 @@ pub fn render_pass(
             }
         };
     }
-    match kernel.bsdf {
-        KernelBsdf::Lambert => lights!(LambertBsdf),
-        KernelBsdf::Seed => lights!(SeedBsdf),
-        KernelBsdf::Principled => lights!(PrincipledBsdf),
+    // Glass is never Lambert: Kernel::choose picks a model for it.
+    match (kernel.bsdf, kernel.glass) {
+        (KernelBsdf::Lambert, _) => lights!(LambertBsdf),
+        (KernelBsdf::Seed, false) => lights!(SeedBsdf),
+        (KernelBsdf::Seed, true) => lights!(WithGlass<SeedBsdf>),
+        (KernelBsdf::Principled, false) => lights!(PrincipledBsdf),
+        (KernelBsdf::Principled, true) => lights!(WithGlass<PrincipledBsdf>),
     }
 }
 

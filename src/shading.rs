@@ -60,6 +60,9 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
             s.roughness *= mr.y;
             s.metallic *= mr.z;
         }
+        if let Some(slot) = &t.transmission {
+            s.transmission *= slot.sample(&scene.images, &uv, Encoding::Linear).x;
+        }
     }
     s.base_color = s.base_color.clamp(Vec3::ZERO, Vec3::ONE);
     s.metallic = s.metallic.clamp(0.0, 1.0);

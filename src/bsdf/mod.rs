@@ -293,6 +293,8 @@ impl LambertBsdf {
 pub trait Bsdf {
     fn new(surface: &Surface, wo: Vec3) -> Self;
     /// f(wo, wi) without the cosine; delta lobes contribute nothing here.
+    /// wi below the surface (z < 0) is transmission: zero unless the model
+    /// has glass.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
     /// Solid-angle pdf of `sample` producing wi, over its non-delta lobes.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
@@ -334,12 +336,17 @@ impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
 impl_bsdf!(PrincipledBsdf);
 
+pub mod dielectric;
 pub mod energy;
 pub mod microfacet;
 pub mod principled;
+pub mod transmission;
 pub use principled::PrincipledBsdf;
+pub use transmission::WithGlass;
 
 #[cfg(test)]
 pub(crate) mod chi2;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod glass_tests;

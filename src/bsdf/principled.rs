@@ -13,9 +13,12 @@
 //!   white dielectric reflects all the light at every angle.
 //! * S_m, S_d: multiple-scattering compensation ("Multiscatter GGX", Cycles'
 //!   default; `Material::multiscatter` off gives plain "GGX"), see energy.rs.
-//! * s: KHR_materials_specular's factor (Blender's Specular IOR Level × 2). It
-//!   scales the dielectric layer and E_layer linearly: exact for 0 and 1, an
-//!   approximation between.
+//! * s: KHR_materials_specular's factor (Blender's Specular IOR Level × 2)
+//!   times F0(IOR)/F0(1.5) for a KHR_materials_ior other than 1.5. It
+//!   scales the dielectric layer and E_layer linearly: exact for s = 0 and
+//!   1, an approximation elsewhere.
+//! * Glass (KHR_materials_transmission) is the dielectric.rs lobe, mixed in
+//!   by transmission.rs.
 //!
 //! Like Cycles, the layering and the compensation depend on wo only, so the
 //! model is not reciprocal; the lobes themselves are.
@@ -51,7 +54,11 @@ impl PrincipledBsdf {
         let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
         let metallic = m.metallic.clamp(0.0, 1.0);
         let base = m.base_color.clamp(Vec3::ZERO, Vec3::ONE);
-        let specular = m.specular.clamp(0.0, 1.0);
+        // The tables hold IOR 1.5; another IOR scales the layer by its F0,
+        // exactly as KHR_materials_specular does (an approximation between
+        // the tables' exact ends, like s itself).
+        let ior_ratio = (m.ior - 1.0) / (m.ior + 1.0) / 0.2;
+        let specular = (m.specular * ior_ratio * ior_ratio).clamp(0.0, 4.0);
         let mu = wo.z.clamp(0.0, 1.0);
         if m.is_pure_lambert() {
             // No glossy lobe, nothing to look up.

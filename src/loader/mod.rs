@@ -37,6 +37,8 @@ const RENDERED: &[&str] = &[
     "KHR_mesh_quantization",
     "KHR_texture_transform",
     "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
     "KHR_lights_punctual",
 ];
 
@@ -420,6 +422,7 @@ impl<'a> Builder<'a> {
         let base_color = pbr.base_color_texture.as_ref().map(info);
         let metallic_roughness = pbr.metallic_roughness_texture.as_ref().map(info);
         let emissive = m.emissive_texture.as_ref().map(info);
+        let transmission = m.extensions.as_ref().and_then(|e| e.transmission.as_ref()).and_then(|t| t.transmission_texture.as_ref()).map(info);
         // The normal texture's transform sits in its extension's free map.
         let normal_transform = m
             .normal_texture
@@ -438,6 +441,7 @@ impl<'a> Builder<'a> {
             base_color: slot(base_color)?,
             metallic_roughness: slot(metallic_roughness)?,
             emissive: slot(emissive)?,
+            transmission: slot(transmission)?,
             normal: match normal {
                 Some((r, scale)) => slot(Some(r))?.map(|s| (s, scale)),
                 None => None,
@@ -643,7 +647,7 @@ fn push_column<T: Copy>(column: &mut Vec<T>, before: usize, value: Option<T>, de
 /// What a material's textures read from its primitives.
 fn needs_of(t: &MaterialTextures) -> Needs {
     let mut needs = Needs::default();
-    for slot in [&t.base_color, &t.metallic_roughness, &t.emissive].into_iter().flatten() {
+    for slot in [&t.base_color, &t.metallic_roughness, &t.emissive, &t.transmission].into_iter().flatten() {
         needs.uv[slot.texcoord as usize] = true;
     }
     if let Some((slot, _)) = &t.normal {
@@ -698,6 +702,10 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         .as_ref()
         .and_then(|e| e.specular.as_ref())
         .map_or(1.0, |s| finite_or(s.specular_factor.0, 1.0).clamp(0.0, 1.0));
+    let extensions = m.extensions.as_ref();
+    let transmission = extensions.and_then(|e| e.transmission.as_ref()).map_or(0.0, |t| finite_or(t.transmission_factor.0, 0.0).clamp(0.0, 1.0));
+    // KHR_materials_ior allows 1 and up; anything else is its default.
+    let ior = extensions.and_then(|e| e.ior.as_ref()).map(|i| i.ior.0).filter(|i| i.is_finite() && *i >= 1.0).unwrap_or(1.5);
     let alpha_mode = match m.alpha_mode {
         Checked::Valid(gltf::json::material::AlphaMode::Mask) => AlphaMode::Mask(m.alpha_cutoff.map_or(0.5, |c| finite_or(c.0, 0.5))),
         Checked::Valid(gltf::json::material::AlphaMode::Blend) => AlphaMode::Blend,
@@ -716,6 +724,8 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         double_sided: m.double_sided,
         lamp: false,
         multiscatter: true,
+        transmission,
+        ior,
     }
 }
 

@@ -160,6 +160,26 @@ fn emission_strength_double_sided_and_specular() {
 }
 
 #[test]
+fn transmission_and_ior() {
+    let mut d = base_doc();
+    assert_eq!((load(&d).unwrap().materials[0].transmission, load(&d).unwrap().materials[0].ior), (0.0, 1.5));
+    d["materials"][0]["extensions"] = json!({
+        "KHR_materials_transmission": {"transmissionFactor": 0.75},
+        "KHR_materials_ior": {"ior": 1.33}
+    });
+    let m = &load(&d).unwrap().materials[0];
+    assert_eq!((m.transmission, m.ior), (0.75, 1.33));
+    assert!(m.is_transmissive() && !m.is_pure_lambert());
+    // Out of range: transmission is clamped, an IOR below 1 is the default.
+    d["materials"][0]["extensions"] = json!({
+        "KHR_materials_transmission": {"transmissionFactor": 7.0},
+        "KHR_materials_ior": {"ior": 0.5}
+    });
+    let m = &load(&d).unwrap().materials[0];
+    assert_eq!((m.transmission, m.ior), (1.0, 1.5));
+}
+
+#[test]
 fn factors_outside_gltf_ranges_are_clamped() {
     let mut d = base_doc();
     d["materials"][0]["pbrMetallicRoughness"] = json!({"baseColorFactor": [2.0, -1.0, 0.5, 1.0], "metallicFactor": 3.0, "roughnessFactor": -2.0});

@@ -1,0 +1,83 @@
+//! Glass mixed into a BSDF model as Cycles' Principled BSDF mixes it:
+//!
+//!   f = t · f_glass + (1 − t) · f_base(metallic m / (1 − t)),   t = (1 − m) · transmission
+//!
+//! so the metal keeps its weight m, the glass (dielectric.rs) gets
+//! (1 − m)·transmission and the specular-over-diffuse layer the rest,
+//! (1 − m)(1 − transmission). Only kernels for scenes with a transmissive
+//! material run this (features.rs): other scenes never pay for it.
+
+use super::dielectric::Dielectric;
+use super::microfacet::eta_from_f0;
+use super::{Bsdf, BsdfSample};
+use crate::material::Surface;
+use glam::{Vec2, Vec3};
+
+#[derive(Clone, Copy, Debug)]
+pub struct WithGlass<B> {
+    /// None when the surface is all glass.
+    base: Option<B>,
+    /// None when none of the surface is glass.
+    glass: Option<Dielectric>,
+    /// t above.
+    glass_weight: f32,
+    /// Probability of sampling the glass (t: both parts return about all
+    /// they receive, so their weights are their shares).
+    glass_probability: f32,
+}
+
+/// The relative IOR of the glass: the surface's, moved by
+/// KHR_materials_specular as Cycles moves it by Specular IOR Level (its
+/// F0 scaled, the IOR recovered from it, 1 when F0 is 0).
+fn glass_eta(s: &Surface) -> f32 {
+    if s.specular == 1.0 {
+        return s.ior;
+    }
+    let eta = eta_from_f0(s.dielectric_f0());
+    if s.ior < 1.0 { 1.0 / eta } else { eta }
+}
+
+impl<B: Bsdf> WithGlass<B> {
+    pub fn new(s: &Surface, wo: Vec3) -> Self {
+        let metallic = s.metallic.clamp(0.0, 1.0);
+        let t = (1.0 - metallic) * s.transmission.clamp(0.0, 1.0);
+        let glass = (t > 0.0).then(|| Dielectric::new(glass_eta(s), s.roughness, s.base_color.clamp(Vec3::ZERO, Vec3::ONE).map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)));
+        let base = (t < 1.0).then(|| B::new(&Surface { metallic: metallic / (1.0 - t), transmission: 0.0, ..*s }, wo));
+        WithGlass { base, glass, glass_weight: t, glass_probability: t }
+    }
+}
+
+impl<B: Bsdf> Bsdf for WithGlass<B> {
+    fn new(surface: &Surface, wo: Vec3) -> Self {
+        WithGlass::new(surface, wo)
+    }
+
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let glass = self.glass.as_ref().map_or(Vec3::ZERO, |g| g.eval(wo, wi));
+        let base = self.base.as_ref().map_or(Vec3::ZERO, |b| b.eval(wo, wi));
+        glass * self.glass_weight + base * (1.0 - self.glass_weight)
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let glass = self.glass.as_ref().map_or(0.0, |g| g.pdf(wo, wi));
+        let base = self.base.as_ref().map_or(0.0, |b| b.pdf(wo, wi));
+        glass * self.glass_probability + base * (1.0 - self.glass_probability)
+    }
+
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let p = self.glass_probability;
+        // One uniform picks the part and, rescaled, the lobe within it.
+        let (s, weight, probability) = match (&self.glass, &self.base) {
+            (Some(g), _) if u_lobe < p => (g.sample(wo, u_lobe / p, u)?, self.glass_weight, p),
+            (_, Some(b)) => (b.sample(wo, ((u_lobe - p) / (1.0 - p)).clamp(0.0, 1.0), u)?, 1.0 - self.glass_weight, 1.0 - p),
+            _ => return None,
+        };
+        if s.delta {
+            // No other part can produce a delta direction.
+            return Some(BsdfSample { f: s.f * weight, pdf: s.pdf * probability, weight: s.weight * (weight / probability), ..s });
+        }
+        let (f, pdf) = (self.eval(wo, s.wi), self.pdf(wo, s.wi));
+        let weight = f * (s.wi.z.abs() / pdf);
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { f, pdf, weight, ..s })
+    }
+}
