@@ -7,13 +7,13 @@ base colour, metallic, roughness, emission colour × strength
 KHR_materials_specular 0, the image textures plugged into them and a Normal
 Map node's image (with texture coordinates, Blender's own MikkTSpace
 tangents where a normal map needs them, and the colour attributes materials
-use), alpha, cameras and mesh geometry with modifiers applied.
+use), alpha, Transmission Weight and IOR (KHR_materials_transmission,
+KHR_materials_ior: glass), cameras and mesh geometry with modifiers applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²) and render punctual: a light's radius, soft
 falloff and a sun's angle are not carried. Not carried, or not yet rendered
-by Glint: procedural textures (the user is warned), transmission, other
-Principled inputs (coat, sheen,
-subsurface, anisotropy, thin film), and World node setups other than a plain
+by Glint: procedural textures (the user is warned), other Principled
+inputs (coat, sheen, subsurface, anisotropy, thin film), and World node setups other than a plain
 Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
