@@ -10,16 +10,17 @@ tangents where a normal map needs them, and the colour attributes materials
 use), alpha, Transmission Weight and IOR (KHR_materials_transmission,
 KHR_materials_ior: glass), cameras and mesh geometry with modifiers applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
-units: W/(4π) per sr, sun W/m²) and render punctual: a light's radius, soft
-falloff and a sun's angle are not carried. Not carried, or not yet rendered
+units: W/(4π) per sr, sun W/m²); their radius and Soft Falloff, and a sun's
+angle, go in the request. Not carried, or not yet rendered
 by Glint: procedural textures (the user is warned), other Principled
 inputs (coat, sheen, subsurface, anisotropy, thin film), and World node setups other than a plain
 Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
 Through the request: resolution × percentage, the scene camera, samples,
-bounces, time limit, seed, the World colour, and every area light (glTF has
-none): shape, size, world transform, colour and power.
+bounces, time limit, seed, the World colour, every area light (glTF has
+none): shape, size, world transform, colour and power, and the sizes of the
+point, spot and sun lights.
 """
 
 import os
@@ -138,6 +139,23 @@ def area_lights(depsgraph):
     return records
 
 
+def light_sizes(depsgraph):
+    """The size of every point, spot and sun light, which KHR_lights_punctual
+    cannot carry: radius and Soft Falloff, or a sun's angle. Keyed by the
+    light data's name, the name the exporter gives the glTF light."""
+    sizes = {}
+    for instance in depsgraph.object_instances:
+        light = instance.object.data if instance.object.type == "LIGHT" else None
+        if light is None or light.type not in {"POINT", "SPOT", "SUN"}:
+            continue
+        if light.type == "SUN":
+            sizes[light.name] = {"name": light.name, "angle": float(light.angle)}
+        else:
+            soft = bool(getattr(light, "use_soft_falloff", True))
+            sizes[light.name] = {"name": light.name, "radius": float(light.shadow_soft_size), "soft_falloff": soft}
+    return list(sizes.values())
+
+
 def render_request(depsgraph, job, width, height):
     """The request for this render, and warnings for the user."""
     scene = depsgraph.scene
@@ -146,22 +164,9 @@ def render_request(depsgraph, job, width, height):
     background, environment, problem = world_background(scene)
     if problem:
         warnings.append(problem)
-    soft = sorted(
-        {
-            i.object.name
-            for i in depsgraph.object_instances
-            if i.object.type == "LIGHT"
-            and (
-                (i.object.data.type in {"POINT", "SPOT"} and i.object.data.shadow_soft_size > 0)
-                or (i.object.data.type == "SUN" and i.object.data.angle > 0)
-            )
-        }
-    )
     procedural = sorted(m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES))
     if procedural:
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
-    if soft:
-        warnings.append(f"{', '.join(soft)}: Glint renders point, spot and sun lights as punctual (radius and angle 0), so their shadows are hard")
     request = {
         "job": job,
         "scene": "scene.glb",
@@ -180,6 +185,7 @@ def render_request(depsgraph, job, width, height):
         # (diffuse 0.8 grey), not glTF's default (white metal).
         "default_surface": [0.8, 0.8, 0.8],
         "area_lights": area_lights(depsgraph),
+        "light_sizes": light_sizes(depsgraph),
     }
     if environment:
         request["environment"] = environment

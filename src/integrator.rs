@@ -246,7 +246,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
         Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rng, rays),
-        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, rng, rays),
+        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, u, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
         Some(_) => Vec3::ZERO,
@@ -308,8 +308,8 @@ fn world_seen(ctx: &Context, dir: Vec3, depth: u32, bsdf_pdf: f32, from_delta: b
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick: a
 /// delta light, so no MIS weight (BSDF sampling never reaches it).
 #[allow(clippy::too_many_arguments)]
-fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
-    let Some(inc) = light.incident(si.p) else { return Vec3::ZERO };
+fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let Some(inc) = light.incident(si.p, u) else { return Vec3::ZERO };
     let wi_local = si.frame.to_local(inc.wi);
     if !same_side(si, inc.wi, wi_local) {
         return Vec3::ZERO;

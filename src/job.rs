@@ -9,7 +9,8 @@ use crate::lamps::AreaLight;
 use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, RenderSettings};
-use crate::request::RenderRequest;
+use crate::punctual::PunctualKind;
+use crate::request::{LightSize, RenderRequest};
 use crate::scene::Scene;
 use glam::Vec3;
 use std::path::Path;
@@ -95,12 +96,29 @@ pub struct SceneExtras<'a> {
     /// Materials rendered with plain (single-scattering) GGX.
     pub single_scatter_materials: &'a [String],
     pub default_surface: Option<[f32; 3]>,
+    pub light_sizes: &'a [LightSize],
 }
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, default_surface: r.default_surface }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, default_surface: r.default_surface, light_sizes: &r.light_sizes }
     }
+}
+
+/// Give the named punctual lights their Blender sizes.
+fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
+    for size in sizes {
+        if !(size.radius.is_finite() && size.radius >= 0.0 && size.angle.is_finite() && (0.0..=std::f32::consts::PI).contains(&size.angle)) {
+            return Err(format!("light_sizes: {}: radius must be finite and ≥ 0, angle in [0, π]", size.name));
+        }
+        for light in scene.punctual.iter_mut().filter(|l| l.name == size.name) {
+            (light.size, light.sphere) = match light.kind {
+                PunctualKind::Sun => (0.5 * size.angle, false),
+                _ => (size.radius, !size.soft_falloff),
+            };
+        }
+    }
+    Ok(())
 }
 
 /// Load a scene (None: the embedded default) and apply the options and the
@@ -133,6 +151,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         (m.base_color, m.metallic, m.specular) = (Vec3::from(colour), 0.0, 0.0);
     }
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
+    size_lights(&mut scene, extras.light_sizes).map_err(|e| format!("{name}: {e}"))?;
     if let Some(env) = &options.environment {
         let map = EnvironmentMap::load(&env.image, env.strength, env.rotation).map_err(|e| format!("{name}: {e}"))?;
         scene.environment = Some(map);

@@ -10,7 +10,9 @@
 //!   "output": "render.exr", "background": [0.05, 0.05, 0.05],
 //!   "area_lights": [ { "name": "Area", "shape": "RECTANGLE",
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
-//!     "power": 100 } ] }
+//!     "power": 100 } ],
+//!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
+//!     { "name": "Sun", "angle": 0.00918 } ] }
 //! ```
 
 use crate::bsdf::BsdfModel;
@@ -61,6 +63,30 @@ pub struct RenderRequest {
     pub default_surface: Option<[f32; 3]>,
     /// The World as an environment image (replaces `background`).
     pub environment: Option<EnvironmentRequest>,
+    /// Sizes of the glTF file's point, spot and sun lights, by name.
+    pub light_sizes: Vec<LightSize>,
+}
+
+/// What KHR_lights_punctual cannot say of a Blender light (punctual.rs).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSize {
+    /// The glTF light's name (Blender's light data name).
+    pub name: String,
+    /// Point and spot: radius in metres.
+    #[serde(default)]
+    pub radius: f32,
+    /// Point and spot: Blender's Soft Falloff (its default): a disk facing
+    /// what it lights; off: a sphere.
+    #[serde(default = "yes")]
+    pub soft_falloff: bool,
+    /// Sun: its angle (the disk's diameter) in radians.
+    #[serde(default)]
+    pub angle: f32,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// Blender's Environment Texture: an equirectangular image × the

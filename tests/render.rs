@@ -205,9 +205,9 @@ fn point_and_sun_light_a_floor_as_the_inverse_square_and_cosine_laws_say() {
         vec![common::diffuse("floor", albedo)],
         common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.01),
     );
-    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(intensity) };
+    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false };
     let tilt = 60f32.to_radians();
-    let sun = PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: Vec3::new(tilt.sin(), -tilt.cos(), 0.0), intensity: Vec3::splat(sun_e) };
+    let sun = PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: Vec3::new(tilt.sin(), -tilt.cos(), 0.0), intensity: Vec3::splat(sun_e), size: 0.0, sphere: false };
     let from_point = albedo / std::f32::consts::PI * intensity / (h * h);
     let from_sun = albedo / std::f32::consts::PI * sun_e * tilt.cos();
     for (lights, expected) in [(vec![point.clone()], from_point), (vec![sun.clone()], from_sun), (vec![point, sun], from_point + from_sun)] {
@@ -240,7 +240,7 @@ fn specialised_kernels_render_the_general_kernels_image() {
     let mut sky = floor(diffuse("floor", 0.5));
     sky.background = Vec3::new(0.2, 0.3, 0.4);
     let mut point = floor(diffuse("floor", 0.5));
-    point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0) });
+    point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false });
     let mut lamp = floor(metal.clone());
     let m = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, 1.0, 0.0));
     let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0 };

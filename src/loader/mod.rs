@@ -388,7 +388,7 @@ impl<'a> Builder<'a> {
             return;
         }
         let name = light.name.clone().or(node_name.map(String::from)).unwrap_or_else(|| format!("light {index}"));
-        self.lights.push(PunctualLight { name, kind, position, direction, intensity });
+        self.lights.push(PunctualLight { name, kind, position, direction, intensity, size: 0.0, sphere: false });
     }
 
     fn material_id(&mut self, index: Option<usize>) -> Result<u32, String> {
