@@ -310,6 +310,9 @@ fn world_seen(ctx: &Context, dir: Vec3, depth: u32, bsdf_pdf: f32, from_delta: b
 #[allow(clippy::too_many_arguments)]
 fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some(inc) = light.incident(si.p, u) else { return Vec3::ZERO };
+    if inc.wi.dot(si.ng) <= 0.0 && !bsdf.transmits() {
+        return Vec3::ZERO;
+    }
     let wi_local = si.frame.to_local(inc.wi);
     if !same_side(si, inc.wi, wi_local) {
         return Vec3::ZERO;
@@ -335,6 +338,9 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     }
     let dist = dist2.sqrt();
     let wi = to_light / dist;
+    if wi.dot(si.ng) <= 0.0 && !bsdf.transmits() {
+        return Vec3::ZERO;
+    }
     let wi_local = si.frame.to_local(wi);
     if !same_side(si, wi, wi_local) {
         return Vec3::ZERO;

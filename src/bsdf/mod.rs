@@ -300,6 +300,11 @@ pub trait Bsdf {
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
     /// `u_lobe` picks the lobe, `u` drives it.
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample>;
+    /// Whether eval can be non-zero below the surface: lets light sampling
+    /// skip a light behind an opaque surface before any shading work.
+    fn transmits(&self) -> bool {
+        false
+    }
 }
 
 /// Which BSDF model renders the scene.

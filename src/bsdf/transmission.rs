@@ -64,6 +64,10 @@ impl<B: Bsdf> Bsdf for WithGlass<B> {
         glass * self.glass_probability + base * (1.0 - self.glass_probability)
     }
 
+    fn transmits(&self) -> bool {
+        self.glass.is_some_and(|g| !g.smooth)
+    }
+
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let p = self.glass_probability;
         // One uniform picks the part and, rescaled, the lobe within it.
