@@ -217,6 +217,18 @@ fn same_side(si: &SurfaceHit, wi: Vec3, local: Vec3) -> bool {
     (g > 0.0 && local.z > 0.0) || (g < 0.0 && local.z < 0.0)
 }
 
+/// A light sample's direction in the shading frame, if it can reach the
+/// BSDF: behind an opaque surface it is dropped before any shading work,
+/// and it must pass `same_side`.
+#[inline]
+fn toward_light<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wi: Vec3) -> Option<Vec3> {
+    if wi.dot(si.ng) <= 0.0 && !bsdf.transmits() {
+        return None;
+    }
+    let local = si.frame.to_local(wi);
+    same_side(si, wi, local).then_some(local)
+}
+
 /// Power heuristic (β = 2) weight of a strategy with pdf `a` against `b`.
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
     if a.is_infinite() {
@@ -273,10 +285,7 @@ fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis:
         },
         None => environment::sample_uniform(si.ng, u),
     };
-    let wi_local = si.frame.to_local(wi);
-    if !(pdf > 0.0) || !same_side(si, wi, wi_local) {
-        return Vec3::ZERO;
-    }
+    let Some(wi_local) = toward_light(si, bsdf, wi).filter(|_| pdf > 0.0) else { return Vec3::ZERO };
     let f = bsdf.eval(wo, wi_local);
     let le = ctx.scene.world_radiance(wi);
     if f == Vec3::ZERO || le == Vec3::ZERO {
@@ -305,18 +314,13 @@ fn world_seen(ctx: &Context, dir: Vec3, depth: u32, bsdf_pdf: f32, from_delta: b
     le * power_heuristic(bsdf_pdf, world_pdf(ctx, ng, dir))
 }
 
-/// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick: a
-/// delta light, so no MIS weight (BSDF sampling never reaches it).
+/// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E
+/// from one point of it: only light sampling reaches these lights
+/// (punctual.rs), so no MIS weight.
 #[allow(clippy::too_many_arguments)]
 fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some(inc) = light.incident(si.p, u) else { return Vec3::ZERO };
-    if inc.wi.dot(si.ng) <= 0.0 && !bsdf.transmits() {
-        return Vec3::ZERO;
-    }
-    let wi_local = si.frame.to_local(inc.wi);
-    if !same_side(si, inc.wi, wi_local) {
-        return Vec3::ZERO;
-    }
+    let Some(wi_local) = toward_light(si, bsdf, inc.wi) else { return Vec3::ZERO };
     let f = bsdf.eval(wo, wi_local);
     if f == Vec3::ZERO {
         return Vec3::ZERO;
@@ -338,13 +342,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     }
     let dist = dist2.sqrt();
     let wi = to_light / dist;
-    if wi.dot(si.ng) <= 0.0 && !bsdf.transmits() {
-        return Vec3::ZERO;
-    }
-    let wi_local = si.frame.to_local(wi);
-    if !same_side(si, wi, wi_local) {
-        return Vec3::ZERO;
-    }
+    let Some(wi_local) = toward_light(si, bsdf, wi) else { return Vec3::ZERO };
     let cos_light = ls.normal.dot(-wi);
     let light_tri = &ctx.scene.triangles[ls.triangle as usize];
     let le = shading::emission_at(ctx.scene, &ctx.scene.materials[light_tri.material as usize], ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0);

@@ -20,6 +20,7 @@
 //!   power is again 4π·I), sampled uniformly in the cone it subtends.
 //! * A sun of angle a: a disk of angular radius a/2 and radiance
 //!   E/(π sin²(a/2)), sampled uniformly in its cone.
+//!
 //! These are Cycles' shapes. As with r = 0, only light sampling reaches
 //! them: camera and BSDF rays pass through a lamp (so a mirror does not
 //! show it), and its samples take the full weight.

@@ -26,7 +26,7 @@
 //! is compensated by 1/E (E the lobe's single-scattering albedo, both lobes,
 //! tabulated below), darkened for a coloured tint as energy.rs does for metal.
 
-use super::energy::ms_scale;
+use super::energy::{cosine_average, lerp_grid, ms_scale, view, visible_normal_mean};
 use super::ggx::d;
 use super::microfacet::{fresnel_dielectric, g1, g2, sample_visible_normal};
 use super::{BsdfSample, SMOOTH_ALPHA_SQ};
@@ -203,27 +203,17 @@ pub struct GlassTables {
 
 /// E_VNDF[G2/G1(wo)] over the lobe the sampler picks by F.
 fn glass_albedo(mu: f32, roughness: f32, eta: f32) -> f32 {
-    let mu = mu.max(1e-3);
-    let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+    let wo = view(mu);
     let alpha = (roughness * roughness).max(1e-4);
     let g1o = g1(wo, alpha);
-    let mut rng = Rng::new(mu.to_bits() as u64, (roughness.to_bits() as u64) << 32 | eta.to_bits() as u64);
-    let mut sum = 0.0f64;
-    for i in 0..STRATA {
-        for j in 0..STRATA {
-            let u = (Vec2::new(i as f32, j as f32) + rng.next_2d()) / STRATA as f32;
-            let h = sample_visible_normal(wo, alpha, u);
-            let f = fresnel_dielectric(wo.dot(h), eta);
-            let reflected = 2.0 * wo.dot(h) * h - wo;
-            if reflected.z > 0.0 {
-                sum += (f * g2(wo, reflected, alpha) / g1o) as f64;
-            }
-            if let Some(t) = refract(wo, h, eta).filter(|t| t.z < 0.0) {
-                sum += ((1.0 - f) * g2(wo, upper(t), alpha) / g1o) as f64;
-            }
-        }
-    }
-    (sum / (STRATA * STRATA) as f64) as f32
+    let mut rng = Rng::new(mu.max(1e-3).to_bits() as u64, (roughness.to_bits() as u64) << 32 | eta.to_bits() as u64);
+    visible_normal_mean(wo, alpha, STRATA, &mut rng, |h| {
+        let f = fresnel_dielectric(wo.dot(h), eta);
+        let reflected = 2.0 * wo.dot(h) * h - wo;
+        let r = if reflected.z > 0.0 { f * g2(wo, reflected, alpha) / g1o } else { 0.0 };
+        let t = refract(wo, h, eta).filter(|t| t.z < 0.0).map_or(0.0, |t| (1.0 - f) * g2(wo, upper(t), alpha) / g1o);
+        r + t
+    })
 }
 
 impl GlassTables {
@@ -238,13 +228,7 @@ impl GlassTables {
                     glass_albedo(grid(mi) * grid(mi), grid(ri), if leaving { 1.0 / eta } else { eta })
                 })
                 .collect();
-            let e_avg = e
-                .chunks(G)
-                .map(|row| {
-                    let n = 400;
-                    (0..n).map(|i| (i as f32 + 0.5) / n as f32).map(|mu| 2.0 * mu * lerp(row, mu.sqrt() * (G - 1) as f32) / n as f32).sum()
-                })
-                .collect();
+            let e_avg = e.chunks(G).map(|row| cosine_average(|mu| lerp_grid(row, mu.sqrt() * (G - 1) as f32))).collect();
             (e, e_avg)
         };
         let (enter, leave) = (table(false), table(true));
@@ -262,7 +246,7 @@ impl GlassTables {
         let (side, z) = Self::locate(eta);
         let (x, y) = (mu.clamp(0.0, 1.0).sqrt() * (G - 1) as f32, roughness.clamp(0.0, 1.0) * (G - 1) as f32);
         let plane = |zi: usize| {
-            let at = |ri: usize| lerp(&self.e[side][(zi * G + ri) * G..(zi * G + ri + 1) * G], x);
+            let at = |ri: usize| lerp_grid(&self.e[side][(zi * G + ri) * G..(zi * G + ri + 1) * G], x);
             lerp_pair(at, y)
         };
         lerp_pair(plane, z).clamp(1e-3, 1.0)
@@ -271,16 +255,12 @@ impl GlassTables {
     pub fn e_avg(&self, roughness: f32, eta: f32) -> f32 {
         let (side, z) = Self::locate(eta);
         let y = roughness.clamp(0.0, 1.0) * (G - 1) as f32;
-        lerp_pair(|zi| lerp(&self.e_avg[side][zi * G..(zi + 1) * G], y), z).clamp(1e-3, 1.0)
+        lerp_pair(|zi| lerp_grid(&self.e_avg[side][zi * G..(zi + 1) * G], y), z).clamp(1e-3, 1.0)
     }
 }
 
-/// Linear interpolation of G grid values at fractional index x.
-fn lerp(values: &[f32], x: f32) -> f32 {
-    lerp_pair(|i| values[i], x)
-}
-
-/// Linear interpolation between the values at the two grid indices around x.
+/// Linear interpolation between the values at the two grid indices around
+/// x, each given by `at` (a row or plane of a table).
 fn lerp_pair(at: impl Fn(usize) -> f32, x: f32) -> f32 {
     let i = (x.max(0.0) as usize).min(G - 2);
     let t = (x - i as f32).clamp(0.0, 1.0);

@@ -59,16 +59,16 @@ fn row(roughness: f32) -> f32 {
     roughness.clamp(0.0, 1.0) * (N - 1) as f32
 }
 
-/// Linear interpolation of N grid values at fractional index x ∈ [0, N−1].
-fn lerp_grid(values: &[f32], x: f32) -> f32 {
-    let i = (x as usize).min(N - 2);
+/// Linear interpolation of grid values at fractional index x ∈ [0, len−1].
+pub(super) fn lerp_grid(values: &[f32], x: f32) -> f32 {
+    let i = (x as usize).min(values.len() - 2);
     let t = x - i as f32;
     values[i] * (1.0 - t) + values[i + 1] * t
 }
 
 /// A view direction at cosine μ (tiny μ is held at 1e-3: the lobe's
 /// albedo is continuous there, the sampler's arithmetic is not).
-fn view(mu: f32) -> Vec3 {
+pub(super) fn view(mu: f32) -> Vec3 {
     let mu = mu.max(1e-3);
     Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu)
 }
@@ -85,22 +85,27 @@ fn single_scatter_albedo(mu: f32, roughness: f32, fresnel: impl Fn(f32) -> f32) 
     }
     let g1o = g1(wo, alpha);
     let mut rng = Rng::new(mu.to_bits() as u64, roughness.to_bits() as u64);
+    visible_normal_mean(wo, alpha, STRATA, &mut rng, |h| {
+        let wi = 2.0 * wo.dot(h) * h - wo;
+        if wi.z > 0.0 { fresnel(wo.dot(h)) * g2(wo, wi, alpha) / g1o } else { 0.0 }
+    })
+}
+
+/// The mean of `weight(h)` over strata² jittered-stratified visible
+/// normals for wo: the estimator every albedo table here is built with.
+pub(super) fn visible_normal_mean(wo: Vec3, alpha: f32, strata: usize, rng: &mut Rng, weight: impl Fn(Vec3) -> f32) -> f32 {
     let mut sum = 0.0f64;
-    for i in 0..STRATA {
-        for j in 0..STRATA {
-            let u = (Vec2::new(i as f32, j as f32) + rng.next_2d()) / STRATA as f32;
-            let h = sample_visible_normal(wo, alpha, u);
-            let wi = 2.0 * wo.dot(h) * h - wo;
-            if wi.z > 0.0 {
-                sum += (fresnel(wo.dot(h)) * g2(wo, wi, alpha) / g1o) as f64;
-            }
+    for i in 0..strata {
+        for j in 0..strata {
+            let u = (Vec2::new(i as f32, j as f32) + rng.next_2d()) / strata as f32;
+            sum += weight(sample_visible_normal(wo, alpha, u)) as f64;
         }
     }
-    (sum / (STRATA * STRATA) as f64) as f32
+    (sum / (strata * strata) as f64) as f32
 }
 
 /// 2∫ f(μ) μ dμ by the midpoint rule.
-fn cosine_average(f: impl Fn(f32) -> f32) -> f32 {
+pub(super) fn cosine_average(f: impl Fn(f32) -> f32) -> f32 {
     let n = 1000;
     (0..n).map(|i| (i as f32 + 0.5) / n as f32).map(|mu| 2.0 * f(mu) * mu / n as f32).sum()
 }
