@@ -27,6 +27,7 @@ sys.path.insert(0, _addons)
 import bpy  # noqa: E402
 
 import glint  # noqa: E402
+from helpers import new_empty_scene  # noqa: E402
 
 glint.register()
 
@@ -56,12 +57,4 @@ def executable():
 
 @pytest.fixture
 def empty_scene():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.engine = "GLINT"
-    scene.render.resolution_percentage = 100
-    # Results are saved as float EXR, linear as rendered.
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.render.image_settings.exr_codec = "ZIP"
-    return scene
+    return new_empty_scene()

@@ -11,7 +11,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from helpers import add_camera, plain_world, render_seeds
+from helpers import add_camera, plain_world, render_seeds, tile_agreement
 
 SIZE, TILE, BOUNCES = 32, 8, 4
 
@@ -50,20 +50,9 @@ def plane_scene(scene, tmp_path):
     return material, material.node_tree.nodes["Principled BSDF"]
 
 
-def tile_means(img):
-    return img.reshape(SIZE // TILE, TILE, SIZE // TILE, TILE, 3).mean(axis=(1, 3))
-
-
 def compare(scene, tmp_path, samples, bounces=BOUNCES):
     cycles, glint = render_seeds(scene, tmp_path, samples, bounces, 2)
-    c, g = tile_means(np.mean(cycles, axis=0)), tile_means(np.mean(glint, axis=0))
-    var = lambda images: tile_means(np.var(np.stack(images), axis=0, ddof=1)) / (len(images) * TILE * TILE)
-    # Tiles without noise (the World seen directly) still differ by float
-    # rounding: 0.8 came back as 0.80000079 from Cycles, 0.79999971 from
-    # Glint. A floor of 1e-5 relative keeps that from reading as 1000 σ.
-    z = np.abs(c - g) / np.maximum(np.sqrt(var(cycles) + var(glint)), 1e-5 * np.abs(c) + 1e-9)
-    bias = g.sum(axis=(0, 1)) / c.sum(axis=(0, 1)) - 1
-    return z, bias
+    return tile_agreement(cycles, glint, TILE)
 
 
 def checker(n, a, b):
