@@ -134,6 +134,7 @@ def area_lights(depsgraph):
                 "color": list(light.color[:3]),
                 # Unnormalised lights give power per unit area, as the exporter reads them.
                 "power": light.energy if getattr(light, "normalize", True) else light.energy * light.area(matrix_world=instance.matrix_world),
+                "visible_camera": bool(obj.visible_camera),
             }
         )
     return records
@@ -142,17 +143,20 @@ def area_lights(depsgraph):
 def light_sizes(depsgraph):
     """The size of every point, spot and sun light, which KHR_lights_punctual
     cannot carry: radius and Soft Falloff, or a sun's angle. Keyed by the
-    light data's name, the name the exporter gives the glTF light."""
+    light data's name, the name the exporter gives the glTF light; with
+    whether the camera sees it (Object › Visibility › Camera, off for
+    lights by default)."""
     sizes = {}
     for instance in depsgraph.object_instances:
         light = instance.object.data if instance.object.type == "LIGHT" else None
         if light is None or light.type not in {"POINT", "SPOT", "SUN"}:
             continue
+        seen = bool(instance.object.visible_camera)
         if light.type == "SUN":
-            sizes[light.name] = {"name": light.name, "angle": float(light.angle)}
+            sizes[light.name] = {"name": light.name, "angle": float(light.angle), "visible_camera": seen}
         else:
             soft = bool(getattr(light, "use_soft_falloff", True))
-            sizes[light.name] = {"name": light.name, "radius": float(light.shadow_soft_size), "soft_falloff": soft}
+            sizes[light.name] = {"name": light.name, "radius": float(light.shadow_soft_size), "soft_falloff": soft, "visible_camera": seen}
     return list(sizes.values())
 
 

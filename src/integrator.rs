@@ -9,6 +9,8 @@
 //!   a point x' has pdf_A = π·lum(Le)/P_total and is joined by a shadow ray:
 //!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
 //!   A point, spot or sun light gives f · cosθ · E / p_pick (punctual.rs).
+//!   A sized one (a disk, sphere or sun cone) is also hit by BSDF rays and
+//!   weighted like an emitter below, p_light = p_pick · pdf_ω.
 //!   The World gives L_w(wi) · f · cosθ / (p_pick · pdf(wi)), wi drawn from
 //!   its own distribution, with a shadow ray to infinity.
 //! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
@@ -258,7 +260,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
         Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rng, rays),
-        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, &ctx.scene.punctual[index], probability, u, rng, rays),
+        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, mis, &ctx.scene.punctual[index], probability, u, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
         Some(_) => Vec3::ZERO,
@@ -315,10 +317,11 @@ fn world_seen(ctx: &Context, dir: Vec3, depth: u32, bsdf_pdf: f32, from_delta: b
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E
-/// from one point of it: only light sampling reaches these lights
-/// (punctual.rs), so no MIS weight.
+/// from one point of it. Only light sampling reaches a punctual light, so
+/// its sample takes the whole weight; a sized one is MIS-weighted against
+/// the BSDF rays that see it (`sized_lights_seen`).
 #[allow(clippy::too_many_arguments)]
-fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, light: &PunctualLight, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, light: &PunctualLight, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some(inc) = light.incident(si.p, u) else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, inc.wi) else { return Vec3::ZERO };
     let f = bsdf.eval(wo, wi_local);
@@ -329,7 +332,31 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, l
     if ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, rng) {
         return Vec3::ZERO;
     }
-    f * inc.irradiance * (wi_local.z.abs() / probability)
+    let weight = if mis && inc.pdf.is_finite() { power_heuristic(probability * inc.pdf, bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    f * inc.irradiance * (weight * wi_local.z.abs() / probability)
+}
+
+/// The sized point, spot and sun lights a ray sees before `t_max`: on a
+/// camera ray only those the camera sees (Blender hides lights from it by
+/// default), whole; on a BSDF ray whole after a delta lobe, MIS-weighted
+/// against their light samples otherwise, none under the seed's rule.
+#[allow(clippy::too_many_arguments)]
+fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, depth: u32, bsdf_pdf: f32, from_delta: bool, mis: bool) -> Vec3 {
+    if depth > 0 && !mis {
+        return Vec3::ZERO;
+    }
+    let mut l = Vec3::ZERO;
+    for &index in &ctx.lights.sized {
+        let light = &ctx.scene.punctual[index];
+        if depth == 0 && !light.camera_sees {
+            continue;
+        }
+        if let Some(seen) = light.seen(o, d, t_max) {
+            let weight = if depth == 0 || from_delta { 1.0 } else { power_heuristic(bsdf_pdf, ctx.lights.punctual_probability(index) * seen.pdf) };
+            l += seen.radiance * weight;
+        }
+    }
+    l
 }
 
 /// One point on an emitting triangle and its shadow ray.
@@ -410,9 +437,15 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
         if let Some(lamp) = lamp {
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
-            let cos_light = tri.cross().normalize().dot(d);
             let material = &ctx.scene.materials[tri.material as usize];
-            l += beta * emission_seen(ctx, material, material.emitted(cos_light < 0.0), lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
+            // Blender hides lights from the camera unless told otherwise.
+            if depth > 0 || material.camera_sees_lamp {
+                let cos_light = tri.cross().normalize().dot(d);
+                l += beta * emission_seen(ctx, material, material.emitted(cos_light < 0.0), lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
+            }
+        }
+        if PUNCTUAL && !ctx.lights.sized.is_empty() {
+            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), depth, bsdf_pdf, from_delta, settings.mis);
         }
         let Some(hit) = hit else {
             l += beta * world_seen(ctx, d, depth, bsdf_pdf, from_delta, from_ng, settings.mis);

@@ -41,6 +41,10 @@ pub struct AreaLight {
     pub color: [f32; 3],
     /// Watts.
     pub power: f32,
+    /// Blender's Object › Visibility › Camera: camera rays see the lamp
+    /// (off by default, as in Blender).
+    #[serde(default)]
+    pub visible_camera: bool,
 }
 
 /// Segments of the polygon standing in for a disk or an ellipse.
@@ -125,6 +129,7 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             specular: 0.0,
             emission: radiance,
             lamp: true,
+            camera_sees_lamp: light.visible_camera,
             ..Material::default()
         });
         let points: Vec<Vec3> = light.outline().iter().map(|&p| m.transform_point3(p)).collect();
@@ -155,7 +160,7 @@ mod tests {
     use crate::camera::Camera;
 
     fn light(shape: LampShape, size: [f32; 2], m: Mat4) -> AreaLight {
-        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0 }
+        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0, visible_camera: false }
     }
 
     fn empty_scene() -> Scene {

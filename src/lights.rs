@@ -20,6 +20,8 @@ pub struct Lights {
     /// Probability of picking the World (the distribution's last entry); 0
     /// when it is black.
     pub world_probability: f32,
+    /// The scene's punctual lights that have a size, which rays can hit.
+    pub sized: Vec<usize>,
 }
 
 /// What light sampling picked.
@@ -64,7 +66,8 @@ impl Lights {
         }
         let distribution = Distribution1D::new(powers);
         let world_probability = if world && !distribution.is_empty() { distribution.probability(distribution.len() - 1) as f32 } else { 0.0 };
-        Lights { total_power: distribution.total(), triangles, distribution, world_probability }
+        let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
+        Lights { total_power: distribution.total(), triangles, distribution, world_probability, sized }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -74,6 +77,11 @@ impl Lights {
     /// Area density of every point on an emitter of radiance `le`.
     pub fn pdf_area(&self, le: Vec3) -> f32 {
         if self.total_power > 0.0 { (std::f64::consts::PI * luminance(le) as f64 / self.total_power) as f32 } else { 0.0 }
+    }
+
+    /// The probability `sample` picks scene punctual light `index`.
+    pub fn punctual_probability(&self, index: usize) -> f32 {
+        self.distribution.probability(self.triangles.len() + index) as f32
     }
 
     pub fn sample(&self, scene: &Scene, u_pick: f32, u: Vec2) -> Option<LightChoice> {

@@ -86,6 +86,9 @@ pub struct Material {
     /// face and is otherwise not there — rays pass through it and it casts
     /// no shadow, as lights do in Cycles.
     pub lamp: bool,
+    /// Camera rays see the lamp too (Blender hides lights from the camera
+    /// by default; BSDF rays always see them).
+    pub camera_sees_lamp: bool,
     /// Cycles' "Multiscatter GGX" (its default): the glossy lobes get back
     /// the energy single scattering loses. Off: plain "GGX".
     pub multiscatter: bool,
@@ -112,6 +115,7 @@ impl Default for Material {
             emission: Vec3::ZERO,
             double_sided: false,
             lamp: false,
+            camera_sees_lamp: false,
             multiscatter: true,
             transmission: 0.0,
             ior: 1.5,

@@ -21,9 +21,13 @@
 //! * A sun of angle a: a disk of angular radius a/2 and radiance
 //!   E/(π sin²(a/2)), sampled uniformly in its cone.
 //!
-//! These are Cycles' shapes. As with r = 0, only light sampling reaches
-//! them: camera and BSDF rays pass through a lamp (so a mirror does not
-//! show it), and its samples take the full weight.
+//! These are Cycles' shapes. A sized light is also seen, as in Cycles with
+//! Blender's default ray visibility: BSDF rays (a mirror, glass, a rough
+//! surface's bounce) reach it and are MIS-weighted against its light
+//! samples; camera rays pass through it unless the request says the camera
+//! sees it (Blender hides lights from the camera by default); it casts no
+//! shadow. With r = 0 only light sampling
+//! reaches a light, and its samples take the full weight.
 
 use crate::sampling::{concentric_disk, Frame};
 use glam::{Vec2, Vec3};
@@ -50,6 +54,9 @@ pub struct PunctualLight {
     pub size: f32,
     /// A point or spot with soft falloff off: a sphere, not a facing disk.
     pub sphere: bool,
+    /// Camera rays see a sized light too (Blender's Object › Visibility ›
+    /// Camera, off for lights by default).
+    pub camera_sees: bool,
 }
 
 /// Light arriving at a point from a punctual light.
@@ -61,6 +68,17 @@ pub struct Incident {
     /// Irradiance on a surface facing the light, W·m⁻²: I/r² (times the
     /// spot's cone) or the sun's.
     pub irradiance: Vec3,
+    /// Solid-angle density of `wi` (infinite for a punctual light).
+    pub pdf: f32,
+}
+
+/// A sized light seen along a ray.
+pub struct Seen {
+    /// Radiance towards the ray's origin, W·sr⁻¹·m⁻².
+    pub radiance: Vec3,
+    /// Solid-angle density with which `incident` draws this direction
+    /// from the ray's origin.
+    pub pdf: f32,
 }
 
 fn smoothstep(x: f32) -> f32 {
@@ -85,9 +103,10 @@ impl PunctualLight {
                 let (wi, one_minus_cos) = cone_sample(-self.direction, self.size, u);
                 // L/pdf_ω = E/(π sin²θ) · 2π(1 − cosθ).
                 let s = self.size.sin();
-                return Some(Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * (2.0 * one_minus_cos / (s * s)) });
+                let pdf = 1.0 / (2.0 * PI * one_minus_cos);
+                return Some(Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * (2.0 * one_minus_cos / (s * s)), pdf });
             }
-            return Some(Incident { wi: -self.direction, distance: f32::INFINITY, irradiance: self.intensity });
+            return Some(Incident { wi: -self.direction, distance: f32::INFINITY, irradiance: self.intensity, pdf: f32::INFINITY });
         }
         let to_light = self.position - p;
         let d2 = to_light.length_squared();
@@ -96,14 +115,14 @@ impl PunctualLight {
         }
         let d = d2.sqrt();
         let r = self.size;
-        let (wi, distance, irradiance) = if r > 0.0 && self.sphere && d > r {
+        let (wi, distance, irradiance, pdf) = if r > 0.0 && self.sphere && d > r {
             // The cone the sphere subtends, sin θmax = r/d; the sampled
             // direction's distance to the sphere by the law of cosines.
             let (wi, one_minus_cos) = cone_sample(to_light / d, (r / d).asin(), u);
             let cos = wi.dot(to_light / d);
             let t = d * cos - (r * r - d2 * (1.0 - cos * cos)).max(0.0).sqrt();
             // L/pdf_ω with L = I/(πr²).
-            (wi, t, self.intensity * (2.0 * one_minus_cos / (r * r)))
+            (wi, t, self.intensity * (2.0 * one_minus_cos / (r * r)), 1.0 / (2.0 * PI * one_minus_cos))
         } else if r > 0.0 {
             // A disk facing p (also inside a sphere light, where no cone
             // is subtended).
@@ -115,18 +134,81 @@ impl PunctualLight {
             let t = t2.sqrt();
             let wi = to_q / t;
             // L·cosθ'·πr²/t² with L = I/(πr²).
-            (wi, t, self.intensity * (n.dot(-wi).max(0.0) / t2))
+            let cos_light = n.dot(-wi).max(0.0);
+            (wi, t, self.intensity * (cos_light / t2), disk_pdf(t2, r, cos_light))
         } else {
-            (to_light / d, d, self.intensity / d2)
+            (to_light / d, d, self.intensity / d2, f32::INFINITY)
         };
-        let cone = match self.kind {
+        let cone = self.cone(wi);
+        (cone > 0.0 && distance > 0.0 && irradiance.is_finite()).then(|| Incident { wi, distance, irradiance: irradiance * cone, pdf })
+    }
+
+    /// The spot's attenuation for light leaving towards −`wi` (1 for
+    /// other lights).
+    fn cone(&self, wi: Vec3) -> f32 {
+        match self.kind {
             PunctualKind::Spot { cos_outer, smooth } => {
                 let c = self.direction.dot(-wi);
                 if smooth > 0.0 { smoothstep((c - cos_outer) / smooth) } else if c > cos_outer { 1.0 } else { 0.0 }
             }
             _ => 1.0,
+        }
+    }
+
+    /// The sized light as a ray from `o` along unit `d` sees it before
+    /// `t_max` (infinite: the ray left the scene, the only way to see the
+    /// sun), with the density `incident` gives that direction from `o`.
+    /// None for a punctual light, which no ray can hit.
+    pub fn seen(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<Seen> {
+        if !(self.size > 0.0) {
+            return None;
+        }
+        if let PunctualKind::Sun = self.kind {
+            // 1 − cos of the angle to the sun's centre, as |d − axis|²/2.
+            let h = (0.5 * self.size).sin();
+            let one_minus_cos = 2.0 * h * h;
+            if t_max < f32::INFINITY || (d + self.direction).length_squared() * 0.5 > one_minus_cos {
+                return None;
+            }
+            let s = self.size.sin();
+            return Some(Seen { radiance: self.intensity / (PI * s * s), pdf: 1.0 / (2.0 * PI * one_minus_cos) });
+        }
+        let to_light = self.position - o;
+        let d2 = to_light.length_squared();
+        let r = self.size;
+        if !(d2 > 0.0 && d2.is_finite()) {
+            return None;
+        }
+        let pdf = if self.sphere && d2 > r * r {
+            // The nearer root of |o + t·d − c|² = r², from the squared
+            // distance of the centre to the ray (stable for a small sphere).
+            let along = to_light.dot(d);
+            let miss2 = (to_light - along * d).length_squared();
+            if along <= 0.0 || miss2 > r * r {
+                return None;
+            }
+            let t = along - (r * r - miss2).sqrt();
+            if !(t > 0.0 && t < t_max) {
+                return None;
+            }
+            let h = (0.5 * (r / d2.sqrt()).min(1.0).asin()).sin();
+            1.0 / (4.0 * PI * h * h)
+        } else {
+            // The disk through the centre facing o.
+            let dist = d2.sqrt();
+            let n = -to_light / dist;
+            let cos_light = -n.dot(d);
+            if !(cos_light > 0.0) {
+                return None;
+            }
+            let t = dist / cos_light;
+            if !(t < t_max) || (o + t * d - self.position).length_squared() > r * r {
+                return None;
+            }
+            disk_pdf(t * t, r, cos_light)
         };
-        (cone > 0.0 && distance > 0.0 && irradiance.is_finite()).then(|| Incident { wi, distance, irradiance: irradiance * cone })
+        let cone = self.cone(d);
+        (cone > 0.0).then(|| Seen { radiance: self.intensity * (cone / (PI * r * r)), pdf })
     }
 
     /// Emitted power (luminance-weighted, W), for choosing among lights.
@@ -139,6 +221,12 @@ impl PunctualLight {
             PunctualKind::Sun => std::f64::consts::PI * (scene_radius as f64).powi(2) * lum,
         }
     }
+}
+
+/// Solid-angle density of a point drawn uniformly on a disk of radius r,
+/// seen at distance² `t2` and cosine `cos_light`.
+fn disk_pdf(t2: f32, r: f32, cos_light: f32) -> f32 {
+    if cos_light > 0.0 { t2 / (PI * r * r * cos_light) } else { f32::INFINITY }
 }
 
 /// A direction uniformly in the cone of half-angle θmax about `axis`, and
@@ -161,7 +249,7 @@ mod tests {
 
     #[test]
     fn inverse_square_cone_and_sun() {
-        let point = PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(8.0), size: 0.0, sphere: false };
+        let point = PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(8.0), size: 0.0, sphere: false, camera_sees: false };
         let i = point.incident(Vec3::ZERO, Vec2::ZERO).unwrap();
         assert_eq!(i.wi, Vec3::Y);
         assert!((i.irradiance.x - 2.0).abs() < 1e-6 && (i.distance - 2.0).abs() < 1e-6);
@@ -198,7 +286,7 @@ mod tests {
             sum / count as f64
         };
         let (r, h, i) = (0.5f32, 1.0f32, 8.0f32);
-        let disk = PunctualLight { name: "d".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(i), size: r, sphere: false };
+        let disk = PunctualLight { name: "d".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(i), size: r, sphere: false, camera_sees: false };
         let e = mean(&disk, Vec3::ZERO, Vec3::Y);
         assert!((e - (i / (r * r + h * h)) as f64).abs() < 2e-3 * e, "disk: {e}");
         let sphere = PunctualLight { sphere: true, ..disk.clone() };
@@ -211,8 +299,61 @@ mod tests {
         let sun = PunctualLight { kind: PunctualKind::Sun, size: 0.1, ..disk.clone() };
         let e = mean(&sun, Vec3::ZERO, Vec3::Y);
         assert!((e - i as f64).abs() < 2e-3 * e, "sun: {e}");
-        // Radius 0 is the punctual light, whatever u.
+        // Radius 0 is the punctual light, whatever u, and no ray sees it.
+        assert!(PunctualLight { size: 0.0, ..disk.clone() }.seen(Vec3::ZERO, Vec3::Y, f32::INFINITY).is_none());
         let point = PunctualLight { size: 0.0, ..disk };
         assert_eq!(point.incident(Vec3::ZERO, Vec2::new(0.3, 0.9)).unwrap().irradiance, Vec3::splat(i / (h * h)));
+    }
+
+    /// What a ray sees of a sized light agrees with what light sampling
+    /// draws: every sampled direction sees the light, with the sample's
+    /// density and L/pdf = the sample's estimate; and the density `seen`
+    /// reports integrates to 1 over the directions that see the light
+    /// (so MIS weights of the two strategies sum to 1).
+    #[test]
+    fn rays_see_sized_lights_as_light_sampling_draws_them() {
+        let spot = PunctualLight::spot(1.2, 0.6);
+        let base = PunctualLight { name: "l".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.5, -0.2), direction: Vec3::new(0.2, -1.0, 0.1).normalize(), intensity: Vec3::new(8.0, 4.0, 2.0), size: 0.4, sphere: false, camera_sees: false };
+        let lights = [
+            base.clone(),
+            PunctualLight { sphere: true, ..base.clone() },
+            PunctualLight { kind: spot, ..base.clone() },
+            PunctualLight { kind: PunctualKind::Sun, size: 0.3, ..base.clone() },
+            PunctualLight { sphere: true, size: 1e-3, position: Vec3::new(0.0, 50.0, 0.0), ..base.clone() },
+        ];
+        let mut rng = crate::rng::Rng::new(5, 1);
+        for (k, light) in lights.iter().enumerate() {
+            for o in [Vec3::ZERO, Vec3::new(1.0, -0.5, 2.0)] {
+                for _ in 0..2000 {
+                    let Some(inc) = light.incident(o, rng.next_2d()) else { continue };
+                    let seen = light.seen(o, inc.wi, f32::INFINITY).unwrap_or_else(|| panic!("light {k}: a sampled direction misses"));
+                    assert!((seen.pdf / inc.pdf - 1.0).abs() < 2e-3, "light {k}: pdf {} vs {}", seen.pdf, inc.pdf);
+                    let estimate = seen.radiance / seen.pdf;
+                    assert!((estimate - inc.irradiance).abs().max_element() <= 2e-3 * inc.irradiance.max_element(), "light {k}: {estimate} vs {}", inc.irradiance);
+                    // Something in front of the light hides it, except the
+                    // sun, which only a ray leaving the scene sees.
+                    assert!(light.seen(o, inc.wi, 0.5 * inc.distance.min(1.0)).is_none());
+                }
+                // ∫ pdf dω by directions drawn uniformly in a cone wider
+                // than the light (half again its angular radius).
+                let (axis, dist) = match light.kind {
+                    PunctualKind::Sun => (-light.direction, 1.0),
+                    _ => ((light.position - o).normalize(), (light.position - o).length()),
+                };
+                let half_angle = 1.5 * if let PunctualKind::Sun = light.kind { light.size } else { (light.size / dist).asin() };
+                let n = 200_000;
+                let mut sum = 0.0f64;
+                for _ in 0..n {
+                    let (d, one_minus_cos) = cone_sample(axis, half_angle, rng.next_2d());
+                    if let Some(seen) = light.seen(o, d, f32::INFINITY).filter(|s| s.radiance != Vec3::ZERO) {
+                        sum += (seen.pdf * 2.0 * PI * one_minus_cos) as f64;
+                    }
+                }
+                let integral = sum / n as f64;
+                // A spot's cone cuts the disk for some origins: then less.
+                let spotlit = matches!(light.kind, PunctualKind::Spot { .. });
+                assert!((integral - 1.0).abs() < 0.01 || (spotlit && integral < 1.01), "light {k} from {o}: ∫pdf dω = {integral}");
+            }
+        }
     }
 }

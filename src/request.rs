@@ -83,6 +83,10 @@ pub struct LightSize {
     /// Sun: its angle (the disk's diameter) in radians.
     #[serde(default)]
     pub angle: f32,
+    /// Blender's Object › Visibility › Camera: camera rays see the light
+    /// (off by default, as in Blender).
+    #[serde(default)]
+    pub visible_camera: bool,
 }
 
 fn yes() -> bool {

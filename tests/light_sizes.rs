@@ -1,9 +1,89 @@
 //! The request's light_sizes reach the named point, spot and sun lights,
-//! and a bad size is a one-line error naming the light.
+//! and a bad size is a one-line error naming the light. A sized light is
+//! seen by BSDF rays (a mirror shows it) but not by the camera, and
+//! weighting its light samples against those rays (MIS) leaves the image
+//! what light sampling alone gives.
 
+mod common;
+
+use common::{channel_mean, horizontal_quad, look_at, render, settings};
+use glam::Vec3;
 use glint::job::{prepare, JobOptions, SceneExtras};
+use glint::material::Material;
+use glint::punctual::{PunctualKind, PunctualLight};
 use glint::request::LightSize;
+use glint::scene::Scene;
 use serde_json::json;
+use std::f32::consts::PI;
+
+/// A metal floor (F0 = 0.9) 20 m wide at y = 0, seen from 5 m straight
+/// above, under `light`.
+fn metal_floor(roughness: f32, light: PunctualLight) -> Scene {
+    let metal = Material { name: "metal".into(), base_color: Vec3::splat(0.9), metallic: 1.0, roughness, ..Material::default() };
+    let mut scene = Scene::new(horizontal_quad(Vec3::ZERO, 10.0, 0.0, true, 0), vec![metal], look_at(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO, 0.6));
+    scene.punctual.push(light);
+    scene
+}
+
+fn lamp(sphere: bool) -> PunctualLight {
+    PunctualLight { name: "lamp".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(50.0), size: 0.5, sphere, camera_sees: false }
+}
+
+#[test]
+fn a_mirror_shows_a_sized_light_the_camera_does_not() {
+    for sphere in [false, true] {
+        // The camera looks down through the lamp at its reflection: normal
+        // incidence, so F = F0 = 0.9 exactly.
+        let scene = metal_floor(0.0, lamp(sphere));
+        let mut s = settings(9, 9, 4, 2, 1);
+        s.mis = true;
+        let (img, _) = render(&scene, &s, 1);
+        let centre = img[4 * 9 + 4];
+        let expected = 0.9 * 50.0 / (PI * 0.25);
+        assert!((centre.x - expected).abs() < 1e-3 * expected, "sphere {sphere}: {centre} vs {expected}");
+        // The corners see the mirror reflect the black sky.
+        assert_eq!(img[0], Vec3::ZERO);
+        // Seen by the camera too, the ray passes on through the lamp to
+        // its reflection: (1 + 0.9)·L.
+        let scene = metal_floor(0.0, PunctualLight { camera_sees: true, ..lamp(sphere) });
+        let centre = render(&scene, &s, 1).0[4 * 9 + 4];
+        assert!((centre.x - expected / 0.9 * 1.9).abs() < 1e-3 * expected, "sphere {sphere}: {centre} vs {}", expected / 0.9 * 1.9);
+    }
+    // A punctual light is never seen.
+    let scene = metal_floor(0.0, PunctualLight { size: 0.0, ..lamp(false) });
+    let mut s = settings(9, 9, 4, 2, 1);
+    s.mis = true;
+    assert!(render(&scene, &s, 1).0.iter().all(|p| *p == Vec3::ZERO));
+}
+
+/// On a rough metal, where BSDF rays find the light often, the MIS image
+/// (light samples and BSDF rays, each weighted) has the mean of light
+/// sampling alone, within 4 standard errors of the two.
+#[test]
+fn mis_with_sized_lights_keeps_the_light_sampling_mean() {
+    let sun = PunctualLight { kind: PunctualKind::Sun, direction: Vec3::new(0.3, -1.0, 0.0).normalize(), intensity: Vec3::splat(3.0), size: 0.2, ..lamp(false) };
+    let spot = PunctualLight { kind: PunctualLight::spot(0.9, 0.5), direction: Vec3::new(0.2, -1.0, 0.0).normalize(), ..lamp(true) };
+    for (what, light) in [("disk", lamp(false)), ("sphere", lamp(true)), ("spot", spot), ("sun", sun)] {
+        let scene = metal_floor(0.3, light);
+        let means = [false, true].map(|mis| {
+            (0..4)
+                .map(|seed| {
+                    let mut s = settings(24, 24, 32, 3, seed);
+                    s.mis = mis;
+                    channel_mean(&render(&scene, &s, 2).0)
+                })
+                .collect::<Vec<_>>()
+        });
+        let stats = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            (m, v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / ((v.len() - 1) * v.len()) as f64)
+        };
+        let ((a, va), (b, vb)) = (stats(&means[0]), stats(&means[1]));
+        let z = (a - b).abs() / (va + vb).sqrt();
+        eprintln!("{what}: light sampling {a:.5}, MIS {b:.5}, {z:.1} σ");
+        assert!(a > 0.01 && z < 4.0, "{what}: light sampling {a} vs MIS {b} ({z:.1} σ)");
+    }
+}
 
 #[test]
 fn light_sizes_reach_the_named_lights_and_bad_ones_are_errors() {
@@ -24,7 +104,7 @@ fn light_sizes_reach_the_named_lights_and_bad_ones_are_errors() {
     let path = dir.join("lights.gltf");
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
 
-    let size = |name: &str, radius: f32, soft_falloff: bool, angle: f32| LightSize { name: name.into(), radius, soft_falloff, angle };
+    let size = |name: &str, radius: f32, soft_falloff: bool, angle: f32| LightSize { name: name.into(), radius, soft_falloff, angle, visible_camera: false };
     let sizes = [size("Lamp", 0.25, false, 0.0), size("Sun", 0.0, true, 0.02)];
     let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { light_sizes: &sizes, ..SceneExtras::default() }).unwrap();
     let find = |n: &str| job.scene.punctual.iter().find(|l| l.name == n).unwrap();

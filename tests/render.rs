@@ -154,6 +154,7 @@ fn a_floor_under_a_uniform_world_has_radiance_albedo_times_world() {
 /// h above a floor, facing down. Its radiance is L = P/(π·πr²); directly
 /// below it the floor receives E = π·L·r²/(r² + h²) and has radiance ρE/π.
 /// Seen from above, the lamp is not there: no back face, no shadow.
+/// The camera sees its face only when the request says so.
 #[test]
 fn an_area_light_lights_the_floor_as_its_power_says_and_is_invisible_from_behind() {
     let (r, h, power, albedo) = (0.5f32, 1.0f32, 50.0f32, 0.5f32);
@@ -186,9 +187,16 @@ fn an_area_light_lights_the_floor_as_its_power_says_and_is_invisible_from_behind
         assert!((mean - expected).abs() < 5.0 * se + 1e-3 * expected, "mis {mis}: {mean} vs {expected} (se {se})");
         assert!(se < 0.01 * expected, "se {se}");
     }
-    // From below, the camera sees the lamp's face: radiance L.
+    // From below, the camera does not see the lamp's face (Blender hides
+    // lights from the camera) unless the request says it does: radiance L.
     scene.camera = common::look_at(Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.0, h, 0.0), 0.01);
     let (img, _) = render(&scene, &settings(4, 4, 1, 1, 2), 1);
+    assert!(img.iter().all(|p| *p == Vec3::ZERO), "{:?}", img[0]);
+    let mut lamps = request.area_lights.clone();
+    lamps[0].visible_camera = true;
+    let mut seen = Scene { camera: scene.camera.clone(), ..base.clone() };
+    glint::lamps::add_area_lights(&mut seen, &lamps).unwrap();
+    let (img, _) = render(&seen, &settings(4, 4, 1, 1, 2), 1);
     assert!(img.iter().all(|p| (p.x - l).abs() < 1e-4 * l), "{:?} vs {l}", img[0]);
 }
 
@@ -205,9 +213,9 @@ fn point_and_sun_light_a_floor_as_the_inverse_square_and_cosine_laws_say() {
         vec![common::diffuse("floor", albedo)],
         common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.01),
     );
-    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false };
+    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false, camera_sees: false };
     let tilt = 60f32.to_radians();
-    let sun = PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: Vec3::new(tilt.sin(), -tilt.cos(), 0.0), intensity: Vec3::splat(sun_e), size: 0.0, sphere: false };
+    let sun = PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: Vec3::new(tilt.sin(), -tilt.cos(), 0.0), intensity: Vec3::splat(sun_e), size: 0.0, sphere: false, camera_sees: false };
     let from_point = albedo / std::f32::consts::PI * intensity / (h * h);
     let from_sun = albedo / std::f32::consts::PI * sun_e * tilt.cos();
     for (lights, expected) in [(vec![point.clone()], from_point), (vec![sun.clone()], from_sun), (vec![point, sun], from_point + from_sun)] {
@@ -240,10 +248,10 @@ fn specialised_kernels_render_the_general_kernels_image() {
     let mut sky = floor(diffuse("floor", 0.5));
     sky.background = Vec3::new(0.2, 0.3, 0.4);
     let mut point = floor(diffuse("floor", 0.5));
-    point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false });
+    point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false });
     let mut lamp = floor(metal.clone());
     let m = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, 1.0, 0.0));
-    let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0 };
+    let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0, visible_camera: false };
     glint::lamps::add_area_lights(&mut lamp, &[light]).unwrap();
     let cornell = load_bytes(glint::DEFAULT_SCENE.as_bytes(), None, "cornell", &LoadOptions::default()).unwrap();
     let cases = [

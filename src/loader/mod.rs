@@ -388,7 +388,7 @@ impl<'a> Builder<'a> {
             return;
         }
         let name = light.name.clone().or(node_name.map(String::from)).unwrap_or_else(|| format!("light {index}"));
-        self.lights.push(PunctualLight { name, kind, position, direction, intensity, size: 0.0, sphere: false });
+        self.lights.push(PunctualLight { name, kind, position, direction, intensity, size: 0.0, sphere: false, camera_sees: false });
     }
 
     fn material_id(&mut self, index: Option<usize>) -> Result<u32, String> {
@@ -723,6 +723,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         emission: emissive * strength,
         double_sided: m.double_sided,
         lamp: false,
+        camera_sees_lamp: false,
         multiscatter: true,
         transmission,
         ior,

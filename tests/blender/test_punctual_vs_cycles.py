@@ -15,6 +15,7 @@ import pytest
 from helpers import add_camera, fair_cycles, give_principled, read_exr
 
 SIZE, TILE = 32, 4
+SPP = 64
 
 
 def floor_and_camera(scene):
@@ -52,12 +53,12 @@ def add_light(scene, kind, size):
     scene.collection.objects.link(obj)
 
 
-def render(scene, engine, seed, path):
+def render(scene, engine, seed, path, bounces=0):
     if engine == "CYCLES":
-        fair_cycles(scene, 64, 0, seed)
+        fair_cycles(scene, SPP, bounces, seed)
     else:
         scene.render.engine = engine
-        scene.glint.samples, scene.glint.max_bounces, scene.glint.seed = 64, 0, seed
+        scene.glint.samples, scene.glint.max_bounces, scene.glint.seed = SPP, bounces, seed
     bpy.ops.render.render()
     bpy.data.images["Render Result"].save_render(str(path))
     return read_exr(path)[..., :3].astype(np.float64)
@@ -86,8 +87,12 @@ def test_punctual_light_on_a_floor_matches_cycles(empty_scene, tmp_path, kind, s
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.3, 0.2, 1.0), scale=(0.2, 0.2, 2.0))
     give_principled(bpy.context.object, "Pole", Base_Color=(0.5, 0.5, 0.5, 1), Roughness=1.0, Specular_IOR_Level=0.0)
     add_light(empty_scene, kind, size)
-    c1, c2 = (render(empty_scene, "CYCLES", s, tmp_path / f"c{s}.exr") for s in (1, 2))
-    g1, g2 = (render(empty_scene, "GLINT", s, tmp_path / f"g{s}.exr") for s in (1, 2))
+    assert_agree(empty_scene, tmp_path, f"{kind} {size}")
+
+
+def assert_agree(scene, tmp_path, what, bounces=0):
+    c1, c2 = (render(scene, "CYCLES", s, tmp_path / f"c{s}.exr", bounces) for s in (1, 2))
+    g1, g2 = (render(scene, "GLINT", s, tmp_path / f"g{s}.exr", bounces) for s in (1, 2))
     c, g = tile_means((c1 + c2) / 2), tile_means((g1 + g2) / 2)
     n = TILE * TILE
     se = np.sqrt((tile_means((c1 - c2) ** 2) + tile_means((g1 - g2) ** 2)) / 2 / (2 * n))
@@ -96,6 +101,37 @@ def test_punctual_light_on_a_floor_matches_cycles(empty_scene, tmp_path, kind, s
     # edge); 0.2% of the tile covers single-precision arithmetic on both
     # sides. A sized light adds its sampling noise to se.
     tol = 5 * se + 2e-3 * c
-    print(f"{kind} {size}: mean Glint/Cycles − 1 = {g.sum() / c.sum() - 1:+.4%}, worst tile {np.max(np.abs(g - c) / np.maximum(tol, 1e-12)):.2f} of tolerance")
+    print(f"{what}: mean Glint/Cycles − 1 = {g.sum() / c.sum() - 1:+.4%}, worst tile {np.max(np.abs(g - c) / np.maximum(tol, 1e-12)):.2f} of tolerance")
     assert c.mean() > 0.01
-    assert np.all(np.abs(g - c) <= tol), (np.round(g[..., 0], 4), np.round(c[..., 0], 4))
+    worst = np.unravel_index(np.argmax(np.abs(g - c) / tol), tol.shape)
+    assert np.all(np.abs(g - c) <= tol), (worst, g[worst[:2]], c[worst[:2]], tol[worst[:2]])
+
+
+SEEN = [
+    ("POINT", ("soft", 0.5), 0.0, False),
+    ("POINT", ("sphere", 0.5), 0.15, False),
+    ("SPOT", ("soft", 0.4), 0.0, False),
+    ("SUN", ("angle", math.radians(10)), 0.0, False),
+    ("POINT", ("sphere", 0.3), 0.3, True),
+]
+
+
+@pytest.mark.parametrize("kind, size, roughness, visible_camera", SEEN)
+def test_sized_lights_seen_in_a_metal_floor_match_cycles(empty_scene, tmp_path, kind, size, roughness, visible_camera):
+    """Blender's lights are seen by BSDF rays (not by the camera, unless its
+    Visibility › Camera is ticked): a mirror or a glossy metal floor shows
+    a sized lamp, a disk of radiance I/(πr²) or a sun's disk; Glint's BSDF
+    rays must reach it, MIS-weighted against the light's samples."""
+    floor_and_camera(empty_scene)
+    floor = bpy.context.scene.objects["Plane"]
+    floor.data.materials.clear()
+    give_principled(floor, "Metal", Base_Color=(0.9, 0.9, 0.9, 1), Metallic=1.0, Roughness=roughness)
+    add_light(empty_scene, kind, size)
+    light = empty_scene.objects[kind]
+    light.visible_camera = visible_camera
+    if kind == "SUN":
+        light.rotation_euler = (math.radians(15), 0, math.radians(30))  # its reflection in view
+    elif kind == "SPOT":
+        light.rotation_euler = (0, 0, 0)
+        light.data.spot_size = math.radians(120)
+    assert_agree(empty_scene, tmp_path, f"{kind} {size} roughness {roughness}, camera {visible_camera}", bounces=1)
