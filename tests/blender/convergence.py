@@ -1,21 +1,29 @@
-"""Error against run time, Glint and Cycles side by side, on one machine.
+"""Error against run time, Glint and Cycles (and Mitsuba 3) side by side,
+on one machine.
 
-    GLINT_EXECUTABLE=target/release/glint  VENV/bin/python tests/blender/convergence.py [--out convergence] [--size 64]
+    GLINT_EXECUTABLE=target/release/glint  VENV/bin/python tests/blender/convergence.py [--out convergence] [--size 64] [--mitsuba]
 
 For each comparison scene (the Cornell box, imported from scenes/ with
 Blender's glTF importer, and a rough gold sphere under an area light), it:
 
-1. renders a converged reference with Cycles (--reference-spp samples);
+1. renders a converged reference with each renderer (--reference-spp
+   samples): each renderer's noise is measured against its own converged
+   image, and its bias against Cycles' is printed beside;
 2. renders with Cycles at 1, 2, 4, … samples (fair settings: CPU, no
-   denoising, adaptive sampling or clamping, box filter, equal bounces) and
+   denoising, adaptive sampling or clamping, box filter, equal bounces),
    with Glint at 1, 2, 4, … samples of the same exported scene (`glint
-   render`, its own rendering time, without load and BVH build);
+   render`, its own rendering time, without load and BVH build), and with
+   --mitsuba, with Mitsuba 3 (`pip install mitsuba`; its LLVM variant needs
+   Debian's libllvm19, found through DRJIT_LIBLLVM_PATH) on the scene
+   converted by mitsuba_scene.py (its docstring lists what differs), timed
+   after a first render at the same sample count has compiled its kernels;
 3. measures the error of each image against the reference: relative MSE
    (mean of (x − ref)² / (ref² + 0.01), ε = 0.01) and RMSE;
 4. writes OUT/SCENE.csv and OUT/SCENE.png (log–log error against seconds,
-   one curve per renderer) and prints the equal-error speed-up: the time
-   Cycles needs for N samples divided by the time Glint needs to reach the
-   same error (interpolated on its curve).
+   one curve per renderer) and prints the equal-error speed-ups: the time
+   Cycles (or Mitsuba) needs for N samples divided by the time Glint needs
+   to reach the same error (interpolated on its curve), with Glint's
+   million rays per second and peak memory.
 
 This is a benchmark that prints figures, not a test: the README holds the
 latest table and plot.
@@ -39,7 +47,8 @@ import numpy as np  # noqa: E402
 
 from helpers import add_camera, fair_cycles, give_principled, plain_world, read_exr  # noqa: E402
 
-BOUNCES = 8
+BOUNCES = int(os.environ.get("GLINT_BENCH_BOUNCES", 8))
+LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 
 
 def cornell(scene):
@@ -104,16 +113,49 @@ def export_for_glint(scene, folder):
     (folder / "request.json").write_bytes(export.json_bytes(request))
 
 
-def glint_render(executable, folder, spp, path):
+def glint_render(executable, folder, spp, path, stats=None):
     out = subprocess.run(
-        [executable, "render", str(folder / "scene.glb"), "--request", str(folder / "request.json"), "--spp", str(spp), "-o", str(path)],
+        [executable, "render", str(folder / "scene.glb"), "--request", str(folder / "request.json"), "--spp", str(spp), "-o", str(path),
+         "--max-depth", str(BOUNCES + 1), "--stats"],
         check=True,
         capture_output=True,
         text=True,
     )
-    # The closing line: "WxH, N spp, S s, M Mrays/s -> out.exr": rendering only.
-    seconds = max(float(out.stderr.strip().splitlines()[-1].split(",")[2].split()[0]), 1e-3)
+    lines = out.stderr.strip().splitlines()
+    # The summary line: "WxH, N spp, S s, M Mrays/s -> out.exr": rendering only.
+    summary = next(line for line in lines if " spp, " in line and "->" in line)
+    seconds = max(float(summary.split(",")[2].split()[0]), 1e-3)
+    if stats is not None:
+        stats["mrays"] = float(summary.split(",")[3].split()[0])
+        stats["memory"] = next((line.split("peak RSS")[1].strip() for line in lines if "peak RSS" in line), "?")
     return read_exr(path)[..., :3].astype(np.float64), seconds
+
+
+def mitsuba_setup(scene):
+    os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM)
+    import mitsuba as mi
+
+    variant = os.environ.get("GLINT_BENCH_MITSUBA_VARIANT", "llvm_ad_rgb")
+    mi.set_variant(variant)
+    from mitsuba_scene import scene_dict
+
+    return mi.load_dict(scene_dict(scene, BOUNCES)), variant
+
+
+def mitsuba_render(mscene, spp, seed=0):
+    import drjit as dr
+    import mitsuba as mi
+
+    # The first render at a sample count compiles its kernels: not timed.
+    dr.eval(mi.render(mscene, spp=spp, seed=seed + 7919))
+    dr.sync_thread()
+    start = time.perf_counter()
+    img = mi.render(mscene, spp=spp, seed=seed)
+    dr.eval(img)
+    dr.sync_thread()
+    seconds = time.perf_counter() - start
+    # Mitsuba's rows run top first, Blender's bottom first.
+    return np.array(img, dtype=np.float64)[::-1, :, :3], seconds
 
 
 def errors(img, ref):
@@ -142,8 +184,10 @@ def plot(name, rows, path):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
-    for renderer, style in (("glint", "o-"), ("cycles", "s--")):
+    for renderer, style in (("glint", "o-"), ("cycles", "s--"), ("mitsuba", "^:")):
         pts = [(r["seconds"], r["relmse"]) for r in rows if r["renderer"] == renderer]
+        if not pts:
+            continue
         ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, label=renderer.capitalize())
     ax.set_xlabel("rendering time (s)")
     ax.set_ylabel("relative MSE (ε = 0.01)")
@@ -162,6 +206,7 @@ def main():
     parser.add_argument("--max-spp", type=int, default=256)
     parser.add_argument("--reference-spp", type=int, default=4096)
     parser.add_argument("--scenes", default=",".join(SCENES))
+    parser.add_argument("--mitsuba", action="store_true", help="also Mitsuba 3 (GLINT_BENCH_MITSUBA_VARIANT, default llvm_ad_rgb)")
     args = parser.parse_args()
     executable = os.environ.get("GLINT_EXECUTABLE", str(REPO / "target" / "release" / "glint"))
     out = Path(args.out)
@@ -179,32 +224,46 @@ def main():
         for name in args.scenes.split(","):
             scene = setup(SCENES[name], args.size)
             work = Path(tempfile.mkdtemp(prefix=f"glint-conv-{name}-"))
-            ref, ref_seconds = cycles(scene, args.reference_spp, work / "ref.exr", seed=12345)
+            refs = {}
+            refs["cycles"], ref_seconds = cycles(scene, args.reference_spp, work / "ref.exr", seed=12345)
             print(f"{name}: Cycles reference {args.reference_spp} spp in {ref_seconds:.1f} s", flush=True)
             export_for_glint(scene, work)
+            refs["glint"], _ = glint_render(executable, work, args.reference_spp, work / "g-ref.exr")
+            renderers = {
+                "cycles": lambda spp: cycles(scene, spp, work / f"c{spp}.exr"),
+                "glint": lambda spp: glint_render(executable, work, spp, work / f"g{spp}.exr", stats),
+            }
+            stats = {}
+            if args.mitsuba:
+                mscene, variant = mitsuba_setup(scene)
+                refs["mitsuba"], _ = mitsuba_render(mscene, args.reference_spp, seed=12345)
+                renderers["mitsuba"] = lambda spp: mitsuba_render(mscene, spp)
             rows = []
             spp = 1
             while spp <= args.max_spp:
-                img, t = cycles(scene, spp, work / f"c{spp}.exr")
-                rows.append({"renderer": "cycles", "spp": spp, "seconds": t, **dict(zip(("relmse", "rmse"), errors(img, ref)))})
-                img, t = glint_render(executable, work, spp, work / f"g{spp}.exr")
-                rows.append({"renderer": "glint", "spp": spp, "seconds": t, **dict(zip(("relmse", "rmse"), errors(img, ref)))})
+                for renderer, render in renderers.items():
+                    img, t = render(spp)
+                    relmse, rmse = errors(img, refs[renderer])
+                    rows.append({"renderer": renderer, "spp": spp, "seconds": t, "relmse": relmse, "rmse": rmse,
+                                 "relmse_vs_cycles": errors(img, refs["cycles"])[0]})
                 spp *= 2
-            # Glint's bias against the converged Cycles image, per channel.
-            g_hi, _ = glint_render(executable, work, args.reference_spp // 4, work / "g-hi.exr")
-            bias = g_hi.reshape(-1, 3).mean(axis=0) / ref.reshape(-1, 3).mean(axis=0) - 1
             with open(out / f"{name}.csv", "w", newline="") as f:
-                w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "relmse", "rmse"])
+                w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "relmse", "rmse", "relmse_vs_cycles"])
                 w.writeheader()
                 w.writerows(rows)
             plot(name, rows, out / f"{name}.png")
+            for renderer, ref in refs.items():
+                if renderer != "cycles":
+                    bias = ref.reshape(-1, 3).mean(axis=0) / refs["cycles"].reshape(-1, 3).mean(axis=0) - 1
+                    print(f"{name}: {renderer} bias against Cycles' reference (R, G, B): {np.round(bias * 100, 2)} %")
+            print(f"{name}: Glint {stats['mrays']:.1f} Mrays/s at {args.max_spp} spp, peak RSS {stats['memory']}")
             glint_curve = [(r["seconds"], r["relmse"]) for r in rows if r["renderer"] == "glint"]
-            print(f"{name}: Glint bias against Cycles' reference (R, G, B): {np.round(bias * 100, 2)} %")
-            print(f"{name}: spp | Cycles s | Cycles relMSE | Glint s to that error | speed-up")
-            for r in (r for r in rows if r["renderer"] == "cycles"):
-                t = time_to_reach(glint_curve, r["relmse"])
-                speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
-                print(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}")
+            for peer in [p for p in renderers if p != "glint"]:
+                print(f"{name}: spp | {peer} s | {peer} relMSE | Glint s to that error | speed-up")
+                for r in (r for r in rows if r["renderer"] == peer):
+                    t = time_to_reach(glint_curve, r["relmse"])
+                    speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
+                    print(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}")
             print(f"{name}: wrote {out / (name + '.csv')} and {out / (name + '.png')}", flush=True)
     except Exception as e:  # noqa: BLE001
         print(f"error: {e}", file=sys.stderr)

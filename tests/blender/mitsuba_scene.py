@@ -1,0 +1,184 @@
+"""The Blender scene, as Cycles renders it, converted for Mitsuba 3, for the
+three-way benchmark (convergence.py --mitsuba).
+
+What carries over, and how it differs from Cycles' reading:
+- meshes, world-space triangles with their smooth or flat normals;
+- the camera (field of view, square image), a one-pixel box filter;
+- each Principled BSDF as the closest fast Mitsuba model, two-sided:
+  metallic ≥ 0.5 → `roughconductor` (GGX, α = roughness², reflectance =
+  base colour with Fresnel 1: Cycles' Schlick-like F82 rises to white at
+  grazing angles, this does not); Specular IOR Level 0 → `diffuse`;
+  otherwise Mitsuba's `principled` (Disney's: its diffuse has a retro-
+  reflection term Cycles 4 dropped; `roughplastic`, the faster model, was
+  46% darker on the Cornell box, its coat's internal reflections and 1/η²
+  taking what Cycles' energy-conserving layer keeps);
+- Emission Color × Strength → an `area` emitter of that radiance on both
+  faces (as Cycles' emission), Blender area lights of square/rectangle shape → a
+  `rectangle` emitter of radiance colour·power/(π·A), a plain World colour
+  → `constant`.
+- `path` integrator, Cycles' Max Bounces B as max_depth B + 2 (Mitsuba
+  counts the emitter seen as a depth), Russian roulette from depth 5
+  (Mitsuba's default).
+"""
+
+import math
+
+import bpy
+import mitsuba as mi
+import numpy as np
+from mathutils import Matrix
+
+
+def principled_inputs(material):
+    """Base colour, metallic, roughness, specular level, emission of a
+    material's Principled BSDF (unlinked inputs; defaults without one)."""
+    bsdf = next((n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None) if material and material.use_nodes else None
+    if bsdf is None:
+        return (0.8, 0.8, 0.8), 0.0, 0.5, 0.5, (0.0, 0.0, 0.0)
+    i = bsdf.inputs
+    emission = np.array(i["Emission Color"].default_value[:3]) * i["Emission Strength"].default_value
+    return tuple(i["Base Color"].default_value[:3]), i["Metallic"].default_value, i["Roughness"].default_value, i["Specular IOR Level"].default_value, tuple(emission)
+
+
+def bsdf_dict(material):
+    """Cycles shades both faces of a surface; Mitsuba's models, one."""
+    return {"type": "twosided", "bsdf": one_sided_bsdf(material)}
+
+
+def one_sided_bsdf(material):
+    base, metallic, roughness, specular, _ = principled_inputs(material)
+    rgb = {"type": "rgb", "value": list(base)}
+    alpha = max(roughness * roughness, 1e-3)
+    if metallic >= 0.5:
+        return {"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha, "specular_reflectance": rgb}
+    if specular == 0.0:
+        return {"type": "diffuse", "reflectance": rgb}
+    return {"type": "principled", "base_color": rgb, "roughness": roughness, "metallic": 0.0, "specular": specular}
+
+
+def mesh_shapes(depsgraph):
+    """One Mitsuba mesh per (object, material slot), in world space, with
+    its BSDF and emitter."""
+    shapes = []
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if obj.type != "MESH":
+            continue
+        mesh = obj.evaluated_get(depsgraph).to_mesh()
+        mesh.calc_loop_triangles()
+        m = np.array(instance.matrix_world)
+        normal_m = np.array(instance.matrix_world.to_3x3().inverted().transposed())
+        tris = mesh.loop_triangles
+        n = len(tris)
+        loops = np.empty(n * 3, dtype=np.int64)
+        tris.foreach_get("loops", loops)
+        slots = np.empty(n, dtype=np.int64)
+        tris.foreach_get("material_index", slots)
+        verts = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", verts)
+        loop_vert = np.empty(len(mesh.loops), dtype=np.int64)
+        mesh.loops.foreach_get("vertex_index", loop_vert)
+        normals = np.empty(len(mesh.corner_normals) * 3)
+        mesh.corner_normals.foreach_get("vector", normals)
+        p = verts.reshape(-1, 3)[loop_vert[loops]] @ m[:3, :3].T + m[:3, 3]
+        nn = normals.reshape(-1, 3)[loops] @ normal_m.T
+        nn /= np.maximum(np.linalg.norm(nn, axis=1, keepdims=True), 1e-12)
+        for slot in np.unique(slots):
+            pick = np.repeat(slots == slot, 3)
+            material = obj.material_slots[slot].material if slot < len(obj.material_slots) else None
+            emission = principled_inputs(material)[4]
+            emitter = {"type": "area", "radiance": {"type": "rgb", "value": list(emission)}} if max(emission) > 0 else None
+            shapes.append(mitsuba_mesh(f"{obj.name}-{slot}", p[pick], nn[pick], bsdf_dict(material), emitter))
+            if emitter:
+                # Cycles' emission lights both faces (the add-on tells Glint
+                # so); Mitsuba's area emitter, the front: a reversed copy
+                # that only emits (a null BSDF lets rays through) lights the
+                # back. It sits 10 µm behind the surface: coincident, a ray
+                # passing it would skip the surface too.
+                tri = p[pick].reshape(-1, 3, 3)[:, ::-1]
+                face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+                face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-30)
+                back = (tri + 1e-5 * face[:, None, :]).reshape(-1, 3)
+                back_n = -nn[pick].reshape(-1, 3, 3)[:, ::-1].reshape(-1, 3)
+                shapes.append(mitsuba_mesh(f"{obj.name}-{slot}-back", back, back_n, {"type": "null"}, emitter))
+        obj.evaluated_get(depsgraph).to_mesh_clear()
+    return shapes
+
+
+def mitsuba_mesh(name, positions, normals, bsdf, emitter):
+    """A Mitsuba triangle mesh from per-corner positions and normals."""
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(bsdf)
+    if emitter:
+        props["emitter"] = mi.load_dict(emitter)
+    count = len(positions)
+    shape = mi.Mesh(name, count, count // 3, props, has_vertex_normals=True)
+    params = mi.traverse(shape)
+    params["vertex_positions"] = mi.Float(np.ascontiguousarray(positions, dtype=np.float32).ravel())
+    params["vertex_normals"] = mi.Float(np.ascontiguousarray(normals, dtype=np.float32).ravel())
+    params["faces"] = mi.UInt32(np.arange(count, dtype=np.uint32))
+    params.update()
+    return shape
+
+
+def area_lights(depsgraph):
+    lights = {}
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if obj.type != "LIGHT" or obj.data.type != "AREA":
+            continue
+        light = obj.data
+        if light.shape not in {"SQUARE", "RECTANGLE"}:
+            raise ValueError(f"area light {obj.name}: only square and rectangle lights convert")
+        sx = light.size
+        sy = light.size_y if light.shape == "RECTANGLE" else light.size
+        world = np.array(instance.matrix_world)
+        # Mitsuba's rectangle spans [−1, 1]² facing +Z; Blender's emits to −Z.
+        local = np.diag([sx / 2, sy / 2, -1.0, 1.0])
+        to_world = world @ local
+        area = sx * sy * np.linalg.norm(np.cross(world[:3, 0], world[:3, 1]))
+        radiance = np.array(light.color[:3]) * light.energy / (math.pi * area)
+        lights[obj.name] = {
+            "type": "rectangle",
+            "to_world": mi.ScalarTransform4f(to_world.tolist()),
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}},
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": radiance.tolist()}},
+        }
+    return lights
+
+
+def scene_dict(scene, bounces):
+    """A Mitsuba scene dict for the Blender scene as Cycles would render it."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    camera = scene.camera
+    # Blender's camera looks down −Z with +X right; Mitsuba's down +Z with +X left.
+    to_world = np.array(camera.matrix_world) @ np.diag([-1.0, 1.0, -1.0, 1.0])
+    width, height = scene.render.resolution_x, scene.render.resolution_y
+    # The axis Blender fits the sensor to, and its angle.
+    fit = camera.data.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if width >= height else "VERTICAL"
+    axis, fov = ("x", camera.data.angle_x) if fit == "HORIZONTAL" else ("y", camera.data.angle_y)
+    d = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": bounces + 2},
+        "sensor": {
+            "type": "perspective",
+            "fov_axis": axis,
+            "fov": math.degrees(fov),
+            "to_world": mi.ScalarTransform4f(to_world.tolist()),
+            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent"},
+        },
+    }
+    for k, shape in enumerate(mesh_shapes(depsgraph)):
+        d[f"mesh{k}"] = shape
+    d.update(area_lights(depsgraph))
+    world = scene.world
+    if world is not None and world.use_nodes:
+        bg = world.node_tree.nodes.get("Background")
+        if bg is not None and not bg.inputs["Color"].is_linked:
+            colour = np.array(bg.inputs["Color"].default_value[:3]) * bg.inputs["Strength"].default_value
+            if colour.max() > 0:
+                d["world"] = {"type": "constant", "radiance": {"type": "rgb", "value": colour.tolist()}}
+    return d
