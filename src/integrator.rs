@@ -256,7 +256,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
         return Vec3::ZERO;
     }
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
-    match ctx.lights.sample(ctx.scene, u_pick, u) {
+    match ctx.lights.sample(ctx.scene, si.p, u_pick, u) {
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
         Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rng, rays),
@@ -268,13 +268,13 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
 }
 
 /// Solid-angle pdf of light sampling reaching the World along `dir` from
-/// a point with geometric normal `ng`.
-fn world_pdf(ctx: &Context, ng: Vec3, dir: Vec3) -> f32 {
+/// a point `p` with geometric normal `ng`.
+fn world_pdf(ctx: &Context, p: Vec3, ng: Vec3, dir: Vec3) -> f32 {
     let pdf = match &ctx.scene.environment {
         Some(map) => map.pdf(dir),
         None => environment::uniform_pdf(ng, dir),
     };
-    ctx.lights.world_probability * pdf
+    ctx.lights.world_probability(p) * pdf
 }
 
 /// One direction toward the World and its shadow ray.
@@ -302,18 +302,49 @@ fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis:
     le * f * (weight * wi_local.z.abs() / p_light)
 }
 
-/// The World seen by a ray that escapes: whole on camera rays and after a
-/// delta lobe; MIS-weighted against light sampling on other BSDF rays
-/// (`ng` is the normal where the ray left); none under the seed's rule.
-fn world_seen(ctx: &Context, dir: Vec3, depth: u32, bsdf_pdf: f32, from_delta: bool, ng: Vec3, mis: bool) -> Vec3 {
+/// Where the current ray came from: what MIS weights of the light it
+/// reaches need.
+#[derive(Clone, Copy)]
+struct Previous {
+    /// The vertex (the camera for a camera ray, with `depth` 0).
+    depth: u32,
+    p: Vec3,
+    /// Geometric normal there.
+    ng: Vec3,
+    /// Solid-angle pdf of the BSDF sample that produced the ray, and
+    /// whether it came from a delta lobe (which light sampling cannot match).
+    bsdf_pdf: f32,
+    delta: bool,
+}
+
+impl Previous {
+    /// The weight of light reached by this ray, which light sampling at
+    /// the previous vertex draws with solid-angle pdf `p_light`: whole on
+    /// camera rays and after a delta lobe, the power heuristic otherwise,
+    /// none under the seed's rule (light sampling alone counts emitters
+    /// after the first hit).
+    fn weight(&self, mis: bool, p_light: impl FnOnce() -> f32) -> f32 {
+        if self.depth == 0 || (mis && self.delta) {
+            1.0
+        } else if mis {
+            power_heuristic(self.bsdf_pdf, p_light())
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The World seen by a ray that escapes.
+fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
     let le = ctx.scene.world_radiance(dir);
-    if depth == 0 || from_delta || le == Vec3::ZERO {
+    if le == Vec3::ZERO {
         return le;
     }
-    if !mis {
-        return Vec3::ZERO;
+    // After a delta lobe the seed's rule counts the World too.
+    if from.delta {
+        return le;
     }
-    le * power_heuristic(bsdf_pdf, world_pdf(ctx, ng, dir))
+    le * from.weight(mis, || world_pdf(ctx, from.p, from.ng, dir))
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E
@@ -336,24 +367,21 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
     f * inc.irradiance * (weight * wi_local.z.abs() / probability)
 }
 
-/// The sized point, spot and sun lights a ray sees before `t_max`: on a
-/// camera ray only those the camera sees (Blender hides lights from it by
-/// default), whole; on a BSDF ray whole after a delta lobe, MIS-weighted
-/// against their light samples otherwise, none under the seed's rule.
-#[allow(clippy::too_many_arguments)]
-fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, depth: u32, bsdf_pdf: f32, from_delta: bool, mis: bool) -> Vec3 {
-    if depth > 0 && !mis {
+/// The sized point, spot and sun lights a ray from `o` sees before
+/// `t_max`; a camera ray only those the camera sees (Blender hides lights
+/// from it by default).
+fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previous, mis: bool) -> Vec3 {
+    if from.depth > 0 && !mis {
         return Vec3::ZERO;
     }
     let mut l = Vec3::ZERO;
     for &index in &ctx.lights.sized {
         let light = &ctx.scene.punctual[index];
-        if depth == 0 && !light.camera_sees {
+        if from.depth == 0 && !light.camera_sees {
             continue;
         }
         if let Some(seen) = light.seen(o, d, t_max) {
-            let weight = if depth == 0 || from_delta { 1.0 } else { power_heuristic(bsdf_pdf, ctx.lights.punctual_probability(index) * seen.pdf) };
-            l += seen.radiance * weight;
+            l += seen.radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p) * seen.pdf);
         }
     }
     l
@@ -394,19 +422,12 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
 }
 
 /// Emission `le` of `material` seen by a ray at distance `t`, cosine
-/// `cos_light` at the emitter: whole on camera rays and after a delta lobe;
-/// MIS-weighted against light sampling on other BSDF rays; none under the
-/// seed's rule (light sampling alone counts emitters after the first hit).
-#[allow(clippy::too_many_arguments)]
-fn emission_seen(ctx: &Context, material: &Material, le: Vec3, t: f32, cos_light: f32, depth: u32, bsdf_pdf: f32, from_delta: bool, mis: bool) -> Vec3 {
-    if depth == 0 || le == Vec3::ZERO {
+/// `cos_light` at the emitter.
+fn emission_seen(ctx: &Context, material: &Material, le: Vec3, t: f32, cos_light: f32, from: &Previous, mis: bool) -> Vec3 {
+    if le == Vec3::ZERO {
         return le;
     }
-    if !mis {
-        return Vec3::ZERO;
-    }
-    let weight = if from_delta { 1.0 } else { power_heuristic(bsdf_pdf, light_pdf_solid_angle(ctx.lights.pdf_area(material.emission), t * t, cos_light)) };
-    le * weight
+    le * from.weight(mis, || light_pdf_solid_angle(ctx.lights.pdf_area(material.emission, from.p), t * t, cos_light))
 }
 
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
@@ -424,12 +445,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
-    // Solid-angle pdf of the BSDF sample that produced the current ray, and
-    // whether it came from a delta lobe (which light sampling cannot match).
-    let mut bsdf_pdf = 0.0f32;
-    let mut from_delta = false;
-    // Geometric normal where the current ray left a surface.
-    let mut from_ng = Vec3::ZERO;
+    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false };
     rays.camera += 1;
     for depth in 0..max_depth {
         let hit = ctx.intersect(o, d, rng);
@@ -441,26 +457,26 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             // Blender hides lights from the camera unless told otherwise.
             if depth > 0 || material.camera_sees_lamp {
                 let cos_light = tri.cross().normalize().dot(d);
-                l += beta * emission_seen(ctx, material, material.emitted(cos_light < 0.0), lamp.t, cos_light, depth, bsdf_pdf, from_delta, settings.mis);
+                l += beta * emission_seen(ctx, material, material.emitted(cos_light < 0.0), lamp.t, cos_light, &from, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() {
-            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), depth, bsdf_pdf, from_delta, settings.mis);
+            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), &from, settings.mis);
         }
         let Some(hit) = hit else {
-            l += beta * world_seen(ctx, d, depth, bsdf_pdf, from_delta, from_ng, settings.mis);
+            l += beta * world_seen(ctx, d, &from, settings.mis);
             break;
         };
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
         if AREA {
             let le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
-            l += beta * emission_seen(ctx, material, le, hit.t, si.ng.dot(d), depth, bsdf_pdf, from_delta, settings.mis);
+            l += beta * emission_seen(ctx, material, le, hit.t, si.ng.dot(d), &from, settings.mis);
         }
         let wo = si.frame.to_local(-d);
         let bsdf = B::new(&si.surface, wo);
         let can_extend = depth + 1 < max_depth;
-        if AREA || PUNCTUAL || ctx.lights.world_probability > 0.0 {
+        if AREA || PUNCTUAL || ctx.lights.has_world() {
             l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);
         }
 
@@ -473,8 +489,6 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             break;
         }
         beta *= s.weight;
-        bsdf_pdf = s.pdf;
-        from_delta = s.delta;
         if depth + 1 >= RR_START_DEPTH {
             let q = beta.max_element().min(RR_MAX_SURVIVAL);
             if !(rng.next_f32() < q) {
@@ -484,7 +498,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         o = si.spawn_origin(wi);
         d = wi;
-        from_ng = si.ng;
+        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta };
         rays.bounce += 1;
     }
     l

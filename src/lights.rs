@@ -2,8 +2,17 @@
 //! probability proportional to their power (luminance-weighted watts: π·A·Le
 //! for a triangle, see punctual.rs for the others). A triangle is then
 //! sampled uniformly, so a point x' on an emitter of radiance Le has area
-//! density pdf_A = π·lum(Le) / P_total: the same for every point of every
-//! emitter of that radiance, so it depends on the material.
+//! density pdf_A = p_local · π·lum(Le) / P_total: the same for every point of
+//! every emitter of that radiance, so it depends on the material.
+//!
+//! The World is picked first, with a probability that depends on the
+//! shading point p: its irradiance π·lum(L̄) against what the other lights
+//! give there, estimated as their power from their bounding sphere,
+//! P_total / (4π·max(d², R²)), plus suns' irradiance. Weighing the World
+//! by a power over the scene's bounding sphere (as before, and pbrt's power
+//! sampler) let a large floor hand it most light samples: under a 1 m²
+//! lamp on a 20 m floor it took 57% of them for ~8% of the light.
+//! p_local = 1 − p_world.
 
 use crate::bsdf::luminance;
 use crate::sampling::{uniform_triangle, Distribution1D};
@@ -17,9 +26,16 @@ pub struct Lights {
     distribution: Distribution1D,
     /// Σ of the lights' powers (luminance-weighted watts).
     total_power: f64,
-    /// Probability of picking the World (the distribution's last entry); 0
-    /// when it is black.
-    pub world_probability: f32,
+    /// π·lum(L̄) of the World, its irradiance on an open surface; 0 when
+    /// it is black.
+    world_irradiance: f32,
+    /// The other lights as the World's share sees them: power of emitting
+    /// triangles, points and spots (W), the centre and squared radius of a
+    /// sphere holding them, and the suns' irradiance (W·m⁻²).
+    local_power: f32,
+    local_centre: Vec3,
+    local_radius2: f32,
+    sun_irradiance: f32,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
 }
@@ -54,46 +70,98 @@ impl Lights {
             .map(|(i, t)| (i as u32, std::f64::consts::PI * t.area() as f64 * luminance(scene.materials[t.material as usize].emission) as f64))
             .filter(|&(_, power)| power > 0.0)
             .unzip();
-        let world = scene.has_world();
-        if world || !scene.punctual.is_empty() {
+        if !scene.punctual.is_empty() {
             let radius = scene_radius(scene);
             powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
-            if world {
-                // What crosses the scene's bounding sphere from a World of
-                // that mean radiance: π·(πr²)·L.
-                powers.push(std::f64::consts::PI * std::f64::consts::PI * (radius as f64).powi(2) * luminance(scene.world_mean()) as f64);
+        }
+        // Where the local lights are, and their power.
+        let (mut lo, mut hi, mut local_power, mut sun_irradiance) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64, 0.0f32);
+        for (&t, &power) in triangles.iter().zip(&powers) {
+            let tri = &scene.triangles[t as usize];
+            tri.p.iter().for_each(|&v| (lo, hi) = (lo.min(v), hi.max(v)));
+            local_power += power;
+        }
+        for (light, &power) in scene.punctual.iter().zip(&powers[triangles.len()..]) {
+            if let crate::punctual::PunctualKind::Sun = light.kind {
+                sun_irradiance += luminance(light.intensity);
+            } else {
+                (lo, hi) = (lo.min(light.position), hi.max(light.position));
+                local_power += power;
             }
         }
+        let (local_centre, local_radius2) = if lo.x <= hi.x { (0.5 * (lo + hi), (0.5 * (hi - lo)).length_squared()) } else { (Vec3::ZERO, 0.0) };
+        let world_irradiance = if scene.has_world() { std::f32::consts::PI * luminance(scene.world_mean()) } else { 0.0 };
         let distribution = Distribution1D::new(powers);
-        let world_probability = if world && !distribution.is_empty() { distribution.probability(distribution.len() - 1) as f32 } else { 0.0 };
         let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
-        Lights { total_power: distribution.total(), triangles, distribution, world_probability, sized }
+        Lights {
+            total_power: distribution.total(),
+            triangles,
+            distribution,
+            world_irradiance,
+            local_power: local_power as f32,
+            local_centre,
+            local_radius2,
+            sun_irradiance,
+            sized,
+        }
     }
 
     pub fn is_empty(&self) -> bool {
-        self.distribution.is_empty()
+        self.distribution.is_empty() && !self.has_world()
     }
 
-    /// Area density of every point on an emitter of radiance `le`.
-    pub fn pdf_area(&self, le: Vec3) -> f32 {
+    /// Whether light sampling picks the World.
+    pub fn has_world(&self) -> bool {
+        self.world_irradiance > 0.0
+    }
+
+    /// The probability of picking the World for a point at `p`: 1 without
+    /// other lights, else its share of the estimated irradiance, kept in
+    /// [0.05, 0.95] so that neither side starves where the estimate is
+    /// crude.
+    pub fn world_probability(&self, p: Vec3) -> f32 {
+        if !self.has_world() {
+            return 0.0;
+        }
+        if self.distribution.is_empty() {
+            return 1.0;
+        }
+        let d2 = (p - self.local_centre).length_squared().max(self.local_radius2).max(1e-12);
+        let local = self.local_power / (4.0 * std::f32::consts::PI * d2) + self.sun_irradiance;
+        let share = self.world_irradiance / (self.world_irradiance + local);
+        if share.is_finite() { share.clamp(0.05, 0.95) } else { 0.5 }
+    }
+
+    /// Area density of every point on an emitter of radiance `le`, for a
+    /// point at `p`.
+    pub fn pdf_area(&self, le: Vec3, p: Vec3) -> f32 {
+        (1.0 - self.world_probability(p)) * self.local_pdf_area(le)
+    }
+
+    /// The same, once the World was not picked.
+    fn local_pdf_area(&self, le: Vec3) -> f32 {
         if self.total_power > 0.0 { (std::f64::consts::PI * luminance(le) as f64 / self.total_power) as f32 } else { 0.0 }
     }
 
-    /// The probability `sample` picks scene punctual light `index`.
-    pub fn punctual_probability(&self, index: usize) -> f32 {
-        self.distribution.probability(self.triangles.len() + index) as f32
+    /// The probability `sample` picks scene punctual light `index` for a
+    /// point at `p`.
+    pub fn punctual_probability(&self, index: usize, p: Vec3) -> f32 {
+        (1.0 - self.world_probability(p)) * self.distribution.probability(self.triangles.len() + index) as f32
     }
 
-    pub fn sample(&self, scene: &Scene, u_pick: f32, u: Vec2) -> Option<LightChoice> {
+    /// A light for a point at `p`.
+    pub fn sample(&self, scene: &Scene, p: Vec3, u_pick: f32, u: Vec2) -> Option<LightChoice> {
         if self.is_empty() {
             return None;
         }
-        let pick = self.distribution.sample(u_pick);
-        if self.world_probability > 0.0 && pick == self.distribution.len() - 1 {
-            return Some(LightChoice::World { probability: self.world_probability });
+        let world = self.world_probability(p);
+        if u_pick < world {
+            return Some(LightChoice::World { probability: world });
         }
+        let local = 1.0 - world;
+        let pick = self.distribution.sample(((u_pick - world) / local).min(1.0 - f32::EPSILON));
         if pick >= self.triangles.len() {
-            let probability = self.distribution.probability(pick) as f32;
+            let probability = local * self.distribution.probability(pick) as f32;
             return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });
         }
         let triangle = self.triangles[pick];
@@ -101,7 +169,7 @@ impl Lights {
         let b = uniform_triangle(u);
         let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
         let normal = tri.cross().normalize();
-        let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission);
+        let pdf_area = local * self.local_pdf_area(scene.materials[tri.material as usize].emission);
         Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area }))
     }
 }
@@ -133,14 +201,42 @@ mod tests {
         let lights = Lights::new(&scene);
         assert_eq!(lights.triangles, vec![0, 1]);
         // ∫ pdf_A dA over the emitters = Σ pdf_A(Le_i) A_i = 1.
-        let total: f32 = [0, 1].iter().map(|&i| lights.pdf_area(scene.materials[i].emission) * 0.5).sum();
+        let total: f32 = [0, 1].iter().map(|&i| lights.pdf_area(scene.materials[i].emission, Vec3::ZERO) * 0.5).sum();
         // (pdf_A includes the π of π·A·Le; the density over area sums to 1.)
         assert!((total - 1.0).abs() < 1e-6);
         let mut counts = [0u32; 2];
         for k in 0..4000 {
-            let Some(LightChoice::Area(s)) = lights.sample(&scene, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3)) else { panic!("no light") };
+            let Some(LightChoice::Area(s)) = lights.sample(&scene, Vec3::ZERO, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3)) else { panic!("no light") };
             counts[s.triangle as usize] += 1;
         }
         assert_eq!(counts, [1000, 3000]);
+    }
+
+    /// With a World, the World's share is larger far from the other lights
+    /// than near them, stays in [0.05, 0.95], is what `sample` picks, and
+    /// the densities of all choices still sum to 1.
+    #[test]
+    fn the_worlds_share_follows_the_distance_to_the_other_lights() {
+        let tri = Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], n: [Vec3::Z; 3], material: 0 };
+        let lamp = Material { emission: Vec3::splat(10.0), ..Material::default() };
+        let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
+        let mut scene = Scene::new(vec![tri], vec![lamp], camera);
+        scene.background = Vec3::splat(0.5);
+        let lights = Lights::new(&scene);
+        let (near, far) = (Vec3::new(0.3, 0.3, 0.1), Vec3::new(0.0, 0.0, 30.0));
+        let (pn, pf) = (lights.world_probability(near), lights.world_probability(far));
+        assert!((0.05..=0.95).contains(&pn) && (0.05..=0.95).contains(&pf) && pn < pf, "{pn} {pf}");
+        for p in [near, far] {
+            let n = 20_000;
+            let world = (0..n).filter(|&k| matches!(lights.sample(&scene, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5)), Some(LightChoice::World { .. }))).count();
+            assert!((world as f32 / n as f32 - lights.world_probability(p)).abs() < 1e-3);
+            // World share + ∫ pdf_A dA over the emitter = 1.
+            let total = lights.world_probability(p) + lights.pdf_area(scene.materials[0].emission, p) * 0.5;
+            assert!((total - 1.0).abs() < 1e-5, "{total}");
+        }
+        // Only a World: it is always picked.
+        let mut sky = scene.clone();
+        sky.materials[0].emission = Vec3::ZERO;
+        assert_eq!(Lights::new(&sky).world_probability(near), 1.0);
     }
 }

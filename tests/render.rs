@@ -200,6 +200,35 @@ fn an_area_light_lights_the_floor_as_its_power_says_and_is_invisible_from_behind
     assert!(img.iter().all(|p| (p.x - l).abs() < 1e-4 * l), "{:?} vs {l}", img[0]);
 }
 
+/// A World and a lamp together: light sampling picks the World with a
+/// probability that changes from point to point (lights.rs), so its MIS
+/// weights must use the same one. Below a disk lamp of radiance L, radius
+/// r, at height h, under a uniform World Lw, a floor of albedo ρ has
+/// radiance ρ/π·(π·L·r²/(r² + h²) + π·Lw), with MIS and without.
+#[test]
+fn a_world_and_a_lamp_add_up_whatever_the_world_is_picked_with() {
+    let (r, h, power, albedo, sky) = (0.5f32, 1.0f32, 50.0f32, 0.5f32, 0.3f32);
+    let mut scene = Scene::new(
+        common::horizontal_quad(Vec3::ZERO, 1e3, 0.0, true, 0),
+        vec![common::diffuse("floor", albedo)],
+        common::look_at(Vec3::new(0.0, 3.0, 0.0), Vec3::ZERO, 0.01),
+    );
+    scene.background = Vec3::splat(sky);
+    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, h, 0.0));
+    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false };
+    glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
+    let l = power / (std::f32::consts::PI * std::f32::consts::PI * r * r);
+    let expected = (albedo / std::f32::consts::PI * (std::f32::consts::PI * l * r * r / (r * r + h * h) + std::f32::consts::PI * sky)) as f64;
+    for mis in [true, false] {
+        let (img, stats) = render(&scene, &RenderSettings { mis, ..settings(32, 32, 256, 2, 3) }, 2);
+        common::assert_clean(&img, &stats, "world and lamp");
+        let values: Vec<f32> = img.iter().map(|p| p.x).collect();
+        let (mean, se) = mean_and_standard_error(&values);
+        eprintln!("mis {mis}: {mean:.5} vs {expected:.5} (se {se:.5})");
+        assert!((mean - expected).abs() < 5.0 * se + 1e-3 * expected, "mis {mis}: {mean} vs {expected} (se {se})");
+    }
+}
+
 /// Punctual lights on a Lambertian floor of albedo ρ: below a point light of
 /// intensity I at height h the floor's radiance is ρ/π · I/h²; under a sun
 /// of irradiance E at 60° from the zenith, ρ/π · E cos 60°. Each alone and
