@@ -103,8 +103,7 @@ impl PunctualLight {
                 let (wi, one_minus_cos) = cone_sample(-self.direction, self.size, u);
                 // L/pdf_ω = E/(π sin²θ) · 2π(1 − cosθ).
                 let s = self.size.sin();
-                let pdf = 1.0 / (2.0 * PI * one_minus_cos);
-                return Some(Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * (2.0 * one_minus_cos / (s * s)), pdf });
+                return Some(Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * (2.0 * one_minus_cos / (s * s)), pdf: cone_pdf(one_minus_cos) });
             }
             return Some(Incident { wi: -self.direction, distance: f32::INFINITY, irradiance: self.intensity, pdf: f32::INFINITY });
         }
@@ -122,7 +121,7 @@ impl PunctualLight {
             let cos = wi.dot(to_light / d);
             let t = d * cos - (r * r - d2 * (1.0 - cos * cos)).max(0.0).sqrt();
             // L/pdf_ω with L = I/(πr²).
-            (wi, t, self.intensity * (2.0 * one_minus_cos / (r * r)), 1.0 / (2.0 * PI * one_minus_cos))
+            (wi, t, self.intensity * (2.0 * one_minus_cos / (r * r)), cone_pdf(one_minus_cos))
         } else if r > 0.0 {
             // A disk facing p (also inside a sphere light, where no cone
             // is subtended).
@@ -164,14 +163,13 @@ impl PunctualLight {
             return None;
         }
         if let PunctualKind::Sun = self.kind {
-            // 1 − cos of the angle to the sun's centre, as |d − axis|²/2.
-            let h = (0.5 * self.size).sin();
-            let one_minus_cos = 2.0 * h * h;
-            if t_max < f32::INFINITY || (d + self.direction).length_squared() * 0.5 > one_minus_cos {
+            // 1 − cos of the angle to the sun's centre is |d − axis|²/2.
+            let cone = one_minus_cos(self.size);
+            if t_max < f32::INFINITY || (d + self.direction).length_squared() * 0.5 > cone {
                 return None;
             }
             let s = self.size.sin();
-            return Some(Seen { radiance: self.intensity / (PI * s * s), pdf: 1.0 / (2.0 * PI * one_minus_cos) });
+            return Some(Seen { radiance: self.intensity / (PI * s * s), pdf: cone_pdf(cone) });
         }
         let to_light = self.position - o;
         let d2 = to_light.length_squared();
@@ -191,8 +189,7 @@ impl PunctualLight {
             if !(t > 0.0 && t < t_max) {
                 return None;
             }
-            let h = (0.5 * (r / d2.sqrt()).min(1.0).asin()).sin();
-            1.0 / (4.0 * PI * h * h)
+            cone_pdf(one_minus_cos((r / d2.sqrt()).min(1.0).asin()))
         } else {
             // The disk through the centre facing o.
             let dist = d2.sqrt();
@@ -229,12 +226,23 @@ fn disk_pdf(t2: f32, r: f32, cos_light: f32) -> f32 {
     if cos_light > 0.0 { t2 / (PI * r * r * cos_light) } else { f32::INFINITY }
 }
 
+/// 1 − cosθ (a cone's solid angle / 2π), formed as 2 sin²(θ/2) so that a
+/// cone of 0.01° is not lost to rounding.
+fn one_minus_cos(theta: f32) -> f32 {
+    let h = (0.5 * theta).sin();
+    2.0 * h * h
+}
+
+/// Solid-angle density of a direction drawn uniformly in a cone whose
+/// 1 − cosθmax is `one_minus_cos`.
+fn cone_pdf(one_minus_cos: f32) -> f32 {
+    1.0 / (2.0 * PI * one_minus_cos)
+}
+
 /// A direction uniformly in the cone of half-angle θmax about `axis`, and
-/// 1 − cosθmax (the cone's solid angle / 2π), formed as 2 sin²(θmax/2)
-/// so that a cone of 0.01° is not lost to rounding.
+/// the cone's 1 − cosθmax.
 fn cone_sample(axis: Vec3, theta_max: f32, u: Vec2) -> (Vec3, f32) {
-    let h = (0.5 * theta_max).sin();
-    let one_minus_cos = 2.0 * h * h;
+    let one_minus_cos = one_minus_cos(theta_max);
     // 1 − cosθ uniform in [0, 1 − cosθmax].
     let omc = u.x * one_minus_cos;
     let sin_t = (omc * (2.0 - omc)).max(0.0).sqrt();

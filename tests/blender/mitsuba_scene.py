@@ -26,7 +26,6 @@ import math
 import bpy
 import mitsuba as mi
 import numpy as np
-from mathutils import Matrix
 
 
 def principled_inputs(material):
@@ -40,13 +39,13 @@ def principled_inputs(material):
     return tuple(i["Base Color"].default_value[:3]), i["Metallic"].default_value, i["Roughness"].default_value, i["Specular IOR Level"].default_value, tuple(emission)
 
 
-def bsdf_dict(material):
-    """Cycles shades both faces of a surface; Mitsuba's models, one."""
-    return {"type": "twosided", "bsdf": one_sided_bsdf(material)}
+def bsdf_dict(inputs):
+    """The BSDF for a material's `principled_inputs`: Cycles shades both
+    faces of a surface; Mitsuba's models, one."""
+    return {"type": "twosided", "bsdf": one_sided_bsdf(*inputs[:4])}
 
 
-def one_sided_bsdf(material):
-    base, metallic, roughness, specular, _ = principled_inputs(material)
+def one_sided_bsdf(base, metallic, roughness, specular):
     rgb = {"type": "rgb", "value": list(base)}
     alpha = max(roughness * roughness, 1e-3)
     if metallic >= 0.5:
@@ -86,9 +85,10 @@ def mesh_shapes(depsgraph):
         for slot in np.unique(slots):
             pick = np.repeat(slots == slot, 3)
             material = obj.material_slots[slot].material if slot < len(obj.material_slots) else None
-            emission = principled_inputs(material)[4]
+            inputs = principled_inputs(material)
+            emission = inputs[4]
             emitter = {"type": "area", "radiance": {"type": "rgb", "value": list(emission)}} if max(emission) > 0 else None
-            shapes.append(mitsuba_mesh(f"{obj.name}-{slot}", p[pick], nn[pick], bsdf_dict(material), emitter))
+            shapes.append(mitsuba_mesh(f"{obj.name}-{slot}", p[pick], nn[pick], bsdf_dict(inputs), emitter))
             if emitter:
                 # Cycles' emission lights both faces (the add-on tells Glint
                 # so); Mitsuba's area emitter, the front: a reversed copy

@@ -10,7 +10,6 @@ import math
 
 import bpy
 import numpy as np
-import pytest
 from helpers import add_camera, plain_world, render_seeds, tile_agreement
 
 SIZE, TILE, BOUNCES = 32, 8, 4
