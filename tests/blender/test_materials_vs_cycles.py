@@ -79,10 +79,7 @@ def compare(scene, tmp_path, samples, replicates=2):
     return z, bias, c, g
 
 
-# Metal at roughness 0.05 is left out: with 16 seeds a side (compare's
-# `replicates`), every tile that reflects the World agrees within 0.04%, but
-# the tile holding the key light's reflection is 0.95% brighter than Cycles
-# (10 σ), and a triangulated sphere changes nothing. The cause is open.
+# Metal at roughness 0.05 has its own test below, at more samples.
 CASES = [(1.0, 0.2), (1.0, 0.5), (1.0, 1.0), (0.0, 0.05), (0.0, 0.2), (0.0, 0.5), (0.0, 1.0)]
 
 
@@ -103,6 +100,23 @@ def test_plain_ggx_is_passed_through_and_matches_cycles(empty_scene, tmp_path, m
 
     assert json.loads(open(daemon.current().path("request.json")).read())["single_scatter_materials"] == ["M"]
     print(f"plain GGX, metallic {metallic} roughness {roughness}: bias against Cycles {bias * 100:.2f} %, worst tile {z.max():.1f} σ")
+    assert z.max() < 5.0, (z.max(), bias)
+
+
+def test_near_mirror_metal_matches_converged_cycles(empty_scene, tmp_path):
+    """Metal at roughness 0.05, where the key light's reflection is a
+    3 × 3-pixel image whose samples are heavy-tailed. There Cycles' mean
+    over seeds at 64 spp is not its converged value: that tile's sum is
+    192.2 ± 0.4 at 64 spp (64 seeds) against 194.1 ± 0.2 at 1,024 spp (24
+    seeds) and 194.4 ± 0.2 at 4,096 (4 seeds), 1.1% low (4.4 σ), while
+    Glint reads 194.1 ± 1.4, 193.4 ± 0.5 and 193.4 ± 0.6. A 64-spp comparison therefore reported
+    Glint 0.95% bright (10 σ); both renderers are compared at 1,024 spp,
+    where Cycles has converged, with 8 seeds a side for the noise. The seed
+    BSDF fails here at 1,400 σ."""
+    sphere_scene(empty_scene, 1.0, 0.05, (0.9, 0.6, 0.2))
+    z, bias, c, g = compare(empty_scene, tmp_path, 1024, replicates=8)
+    print(f"metallic 1 roughness 0.05 at 1024 spp: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
+    # Same reasoning as below: 48 tile-channels at 5 σ.
     assert z.max() < 5.0, (z.max(), bias)
 
 
