@@ -9,6 +9,10 @@
 //!   emitters by area, 1/A_total). On an emitting triangle
 //!   a point x' has pdf_A = π·lum(Le)/P_total and is joined by a shadow ray:
 //!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
+//!   or, where the triangle is close, its direction is drawn over the
+//!   triangle's solid angle Ω with p_pick/Ω per steradian:
+//!       L_e(x'→x) · f(wo, wi) · cosθ / pdf_ω
+//!   (lights.rs gives every light sample's density per steradian).
 //!   A point, spot or sun light gives f · cosθ · E / p_pick (punctual.rs).
 //!   A sized one (a disk, sphere or sun cone) is also hit by BSDF rays and
 //!   weighted like an emitter below, p_light = p_pick · pdf_ω.
@@ -23,8 +27,8 @@
 //!
 //! With `mis` on (Veach 1997), both strategies count emitters and each
 //! contribution is weighted by the power heuristic w = p²/(p² + p_other²),
-//! both pdfs in solid angle: p_light = pdf_A r² / |cosθ'| for the light
-//! sampling above, p_bsdf from the BSDF. At the last vertex a path cannot
+//! both pdfs in solid angle: p_light = pdf_A r² / |cosθ'| (or p_pick/Ω) for
+//! the light sampling above, p_bsdf from the BSDF. At the last vertex a path cannot
 //! extend, so its light sample takes the whole weight. A ray from a delta
 //! lobe (a perfect mirror) is the only strategy that can reach the emitter
 //! it hits, so that emission takes weight 1; light samples see f = 0 there.
@@ -41,7 +45,7 @@ use crate::bsdf::Bsdf;
 use crate::features::{Features, Kernel};
 use crate::lights::{LightChoice, LightSample, Lights};
 use crate::punctual::PunctualLight;
-use crate::material::{Material, Surface};
+use crate::material::Surface;
 use crate::render::RenderSettings;
 use crate::rng::Rng;
 use crate::sampling::Frame;
@@ -241,13 +245,6 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else if a > b { 1.0 } else { 0.0 }
 }
 
-/// Solid-angle pdf of reaching an emitter point of area density `pdf_area`
-/// at distance² `dist2` with cosine `cos_light` there.
-fn light_pdf_solid_angle(pdf_area: f32, dist2: f32, cos_light: f32) -> f32 {
-    let c = cos_light.abs();
-    if c > 0.0 { dist2 / (c / pdf_area) } else { f32::INFINITY }
-}
-
 /// L_dir at one surface point: one light sample and its shadow ray,
 /// MIS-weighted against BSDF sampling when `mis` is set.
 /// With no light at all it draws no random numbers, so a kernel that
@@ -393,7 +390,8 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previou
 fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let to_light = ls.point - si.p;
     let dist2 = to_light.length_squared();
-    if !(dist2 > 0.0) {
+    // An emitter seen edge-on has an infinite density and gives nothing.
+    if !(dist2 > 0.0 && ls.pdf > 0.0 && ls.pdf.is_finite()) {
         return Vec3::ZERO;
     }
     let dist = dist2.sqrt();
@@ -418,17 +416,17 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if !(length > 0.0) || ctx.occluded(origin, segment / length, length, ls.triangle, rng) {
         return Vec3::ZERO;
     }
-    let weight = if mis { power_heuristic(light_pdf_solid_angle(ls.pdf_area, dist2, cos_light), bsdf.pdf(wo, wi_local)) } else { 1.0 };
-    le * f * (weight * wi_local.z.abs() * cos_light.abs() / (dist2 * ls.pdf_area))
+    let weight = if mis { power_heuristic(ls.pdf, bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    le * f * (weight * wi_local.z.abs() / ls.pdf)
 }
 
-/// Emission `le` of `material` seen by a ray at distance `t`, cosine
-/// `cos_light` at the emitter.
-fn emission_seen(ctx: &Context, material: &Material, le: Vec3, t: f32, cos_light: f32, from: &Previous, mis: bool) -> Vec3 {
+/// Emission `le` of emitting triangle `triangle` seen by a ray at distance
+/// `t`, cosine `cos_light` at the emitter.
+fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, cos_light: f32, from: &Previous, mis: bool) -> Vec3 {
     if le == Vec3::ZERO {
         return le;
     }
-    le * from.weight(mis, || light_pdf_solid_angle(ctx.lights.pdf_area(material.emission, from.p), t * t, cos_light))
+    le * from.weight(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, t * t, cos_light))
 }
 
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
@@ -458,7 +456,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             // Blender hides lights from the camera unless told otherwise.
             if depth > 0 || material.camera_sees_lamp {
                 let cos_light = tri.cross().normalize().dot(d);
-                l += beta * emission_seen(ctx, material, material.emitted(cos_light < 0.0), lamp.t, cos_light, &from, settings.mis);
+                l += beta * emission_seen(ctx, lamp.triangle, material.emitted(cos_light < 0.0), lamp.t, cos_light, &from, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() {
@@ -472,7 +470,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let material = &ctx.scene.materials[si.material as usize];
         if AREA {
             let le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
-            l += beta * emission_seen(ctx, material, le, hit.t, si.ng.dot(d), &from, settings.mis);
+            l += beta * emission_seen(ctx, si.triangle, le, hit.t, si.ng.dot(d), &from, settings.mis);
         }
         let wo = si.frame.to_local(-d);
         let bsdf = B::new(&si.surface, wo);

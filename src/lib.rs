@@ -20,6 +20,7 @@ pub mod rng;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
+pub mod spherical_triangle;
 pub mod texture;
 pub mod watch;
 

@@ -13,10 +13,18 @@
 //! sampler) let a large floor hand it most light samples: under a 1 m²
 //! lamp on a 20 m floor it took 57% of them for ~8% of the light.
 //! p_local = 1 − p_world.
+//!
+//! A point on the chosen triangle is drawn by area, or, when the shading
+//! point is close to the triangle (its longest edge longer than the
+//! distance to its plane, Cycles' rule), uniformly over the solid angle
+//! it covers (spherical_triangle.rs): there cos'/r² would swing by orders
+//! of magnitude over the triangle. Densities are given per solid angle at
+//! the shading point, the measure MIS compares them in.
 
 use crate::bsdf::luminance;
 use crate::sampling::{uniform_triangle, Distribution1D};
-use crate::scene::Scene;
+use crate::scene::{Scene, Triangle};
+use crate::spherical_triangle::SphericalTriangle;
 use glam::{Vec2, Vec3};
 
 pub struct Lights {
@@ -57,8 +65,9 @@ pub struct LightSample {
     pub point: Vec3,
     /// Unit face normal of the emitter (its front side).
     pub normal: Vec3,
-    /// Area density of this point.
-    pub pdf_area: f32,
+    /// Density of the direction towards the point, per steradian at the
+    /// shading point; infinite where the emitter is seen edge-on.
+    pub pdf: f32,
 }
 
 impl Lights {
@@ -166,12 +175,73 @@ impl Lights {
         }
         let triangle = self.triangles[pick];
         let tri = &scene.triangles[triangle as usize];
-        let b = uniform_triangle(u);
-        let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
         let normal = tri.cross().normalize();
-        let pdf_area = local * self.local_pdf_area(scene.materials[tri.material as usize].emission);
-        Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf_area }))
+        let p_triangle = local * self.local_pdf_area(scene.materials[tri.material as usize].emission) * tri.area();
+        let view = seen_close(p, tri);
+        let b = match &view {
+            Some(view) => barycentrics_along(p, view.sample(u), tri),
+            None => uniform_triangle(u),
+        };
+        let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
+        let pdf = match view {
+            Some(view) => p_triangle / view.solid_angle,
+            None => {
+                let to_p = p - point;
+                solid_angle_density(p_triangle / tri.area(), to_p.length_squared(), normal.dot(to_p.normalize_or_zero()))
+            }
+        };
+        Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf }))
     }
+
+    /// The density per steradian with which `sample`, from `p`, reaches
+    /// the point of emitting triangle `triangle` at distance √`dist2`,
+    /// where the ray meets it with cosine `cos_light`.
+    pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, dist2: f32, cos_light: f32) -> f32 {
+        let tri = &scene.triangles[triangle as usize];
+        let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission, p);
+        match seen_close(p, tri) {
+            Some(view) => pdf_area * tri.area() / view.solid_angle,
+            None => solid_angle_density(pdf_area, dist2, cos_light),
+        }
+    }
+}
+
+/// The triangle as a spherical triangle from `p` when p is close enough
+/// for its cos'/r² to vary widely: the longest edge longer than the
+/// distance to its plane.
+fn seen_close(p: Vec3, tri: &Triangle) -> Option<SphericalTriangle> {
+    let [a, b, c] = tri.p;
+    let longest2 = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
+    let n = tri.cross();
+    let distance = n.dot(a - p);
+    (longest2 * n.length_squared() > distance * distance).then(|| SphericalTriangle::new(p, &tri.p)).flatten()
+}
+
+/// Where the ray from `p` along `w` crosses the triangle's plane, as
+/// barycentrics (b1, b2) clamped onto the triangle (a direction drawn over
+/// its solid angle can stray past an edge by rounding).
+fn barycentrics_along(p: Vec3, w: Vec3, tri: &Triangle) -> Vec2 {
+    let (e1, e2) = (tri.p[1] - tri.p[0], tri.p[2] - tri.p[0]);
+    let n = e1.cross(e2);
+    let x = p + w * (n.dot(tri.p[0] - p) / n.dot(w)) - tri.p[0];
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (x1, x2) = (x.dot(e1), x.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    let b = Vec2::new((d22 * x1 - d12 * x2) / det, (d11 * x2 - d12 * x1) / det);
+    if !b.is_finite() {
+        return Vec2::splat(1.0 / 3.0);
+    }
+    let b = b.max(Vec2::ZERO);
+    let sum = b.x + b.y;
+    if sum > 1.0 { b / sum } else { b }
+}
+
+/// An area density at a point `dist2` away, met with cosine `cos_light`
+/// (signed or not), as a density per steradian: pdf_A·r²/|cos'|, infinite
+/// edge-on.
+pub fn solid_angle_density(pdf_area: f32, dist2: f32, cos_light: f32) -> f32 {
+    let c = cos_light.abs();
+    if c > 0.0 { dist2 / (c / pdf_area) } else { f32::INFINITY }
 }
 
 /// Radius of a sphere about the bounds' centre that holds every surface,

@@ -230,15 +230,18 @@ fn huge_dim_emitter_and_an_emitter_ten_microns_away() {
             let mean = channel_mean(&img);
             let (worst, rms) = relative_errors(&img, &vec![exact; img.len()]);
             eprintln!("{what}, MIS {on}: mean {mean:.5} (exact {exact}), worst pixel error {:.1}%, rms {:.2}%", worst * 100.0, rms * 100.0);
-            if on {
-                // Cosine sampling finds the ceiling every time and MIS gives
-                // it the weight; light samples share it only at grazing
-                // angles. Measured rms 0.21% / 0.15%, worst pixel 1.6% / 1.6%.
-                assert!(rms < 0.005 && worst < 0.05, "{what}: rms {rms}, worst {worst}");
-            }
-            // The seed rule (area sampling only) is unbiased but its samples
-            // almost all land far away: measured means 0.6% / 0.006% of the
-            // exact value at 64 spp. It must stay clean; it cannot converge.
+            // Where the ceiling is this close, light samples are drawn over
+            // its solid angle (lights.rs): uniform over the hemisphere here,
+            // where cosine sampling alone would be exact, so mixing the two
+            // adds noise. Measured rms 3.3% / 3.5%, worst pixel 9.5% / 9.8%
+            // (0.21% and 1.6% when light samples fell kilometres away and
+            // MIS left it all to cosine sampling). The seed rule (light
+            // samples only) now converges: rms 8.4% / 9.0%, worst pixel
+            // 26% / 31%, means within
+            // 0.3% (0.6% and 0.006% of the answer by area sampling).
+            let (rms_limit, worst_limit) = if on { (0.05, 0.15) } else { (0.12, 0.45) };
+            assert!(rms < rms_limit && worst < worst_limit, "{what}, MIS {on}: rms {rms}, worst {worst}");
+            assert!((mean / exact as f64 - 1.0).abs() < 0.01, "{what}, MIS {on}: mean {mean}");
         }
     }
 }
@@ -295,8 +298,11 @@ fn scaled_and_translated_cornell_box_renders_the_same_image() {
         let ratio = channel_mean(&img) / channel_mean(&original);
         eprintln!("scale {scale:e} shift {shift}: relMSE {e:.3e} ({:.3}× the noise floor), mean ratio {ratio:.5}", e / noise);
         if shift == Vec3::ZERO {
-            // Pure scalings keep every path: measured relMSE 8e-13 and 1e-12.
-            assert!(e < 1e-3 * noise, "scale {scale}: {e}");
+            // Pure scalings keep nearly every path. Since close emitters
+            // are sampled by solid angle (double-precision directions), a
+            // few paths round into another branch: measured 0.007× and
+            // 0.002× the noise floor (8e-13 and 1e-12 before).
+            assert!(e < 0.02 * noise, "scale {scale}: {e}");
         } else {
             // Far from the origin f32 snaps the geometry (1e5 m: to 7.8 mm,
             // 0.4% of the box) and the ray offsets grow with the coordinates.
