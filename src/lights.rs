@@ -16,15 +16,15 @@
 //!
 //! A point on the chosen triangle is drawn by area, or, when the shading
 //! point is close to the triangle (its longest edge longer than the
-//! distance to its plane, Cycles' rule), uniformly over the solid angle
-//! it covers (spherical_triangle.rs): there cos'/r² would swing by orders
+//! distance to its centroid), uniformly over the solid angle it covers
+//! (spherical_triangle.rs): there cos'/r² would swing by orders
 //! of magnitude over the triangle. Densities are given per solid angle at
 //! the shading point, the measure MIS compares them in.
 
 use crate::bsdf::luminance;
 use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Scene, Triangle};
-use crate::spherical_triangle::SphericalTriangle;
+use crate::spherical_triangle::{self, SphericalTriangle};
 use glam::{Vec2, Vec3};
 
 pub struct Lights {
@@ -177,7 +177,7 @@ impl Lights {
         let tri = &scene.triangles[triangle as usize];
         let normal = tri.cross().normalize();
         let p_triangle = local * self.local_pdf_area(scene.materials[tri.material as usize].emission) * tri.area();
-        let view = seen_close(p, tri);
+        let view = close_solid_angle(p, tri).and_then(|omega| SphericalTriangle::new(p, &tri.p, omega));
         let b = match &view {
             Some(view) => barycentrics_along(p, view.sample(u), tri),
             None => uniform_triangle(u),
@@ -199,22 +199,24 @@ impl Lights {
     pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, dist2: f32, cos_light: f32) -> f32 {
         let tri = &scene.triangles[triangle as usize];
         let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission, p);
-        match seen_close(p, tri) {
-            Some(view) => pdf_area * tri.area() / view.solid_angle,
+        match close_solid_angle(p, tri) {
+            Some(omega) => pdf_area * tri.area() / omega,
             None => solid_angle_density(pdf_area, dist2, cos_light),
         }
     }
 }
 
-/// The triangle as a spherical triangle from `p` when p is close enough
-/// for its cos'/r² to vary widely: the longest edge longer than the
-/// distance to its plane.
-fn seen_close(p: Vec3, tri: &Triangle) -> Option<SphericalTriangle> {
+/// The solid angle of the triangle from `p` when p is close enough for its
+/// cos'/r² to vary widely — the longest edge longer than the distance to the
+/// centroid — and it covers enough to be sampled by solid angle. (Cycles'
+/// rule, the distance to the plane, also takes points far out beside the
+/// triangle: on the Cornell box it cost 16% more time than this rule for
+/// the same error.)
+fn close_solid_angle(p: Vec3, tri: &Triangle) -> Option<f32> {
     let [a, b, c] = tri.p;
     let longest2 = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
-    let n = tri.cross();
-    let distance = n.dot(a - p);
-    (longest2 * n.length_squared() > distance * distance).then(|| SphericalTriangle::new(p, &tri.p)).flatten()
+    let centroid = (a + b + c) / 3.0;
+    (longest2 > p.distance_squared(centroid)).then(|| spherical_triangle::solid_angle(p, &tri.p)).flatten()
 }
 
 /// Where the ray from `p` along `w` crosses the triangle's plane, as

@@ -28,26 +28,29 @@ pub struct SphericalTriangle {
 /// cos'/r² hardly varies over it, and Arvo's construction loses precision.
 pub const MIN_SOLID_ANGLE: f32 = 1e-3;
 
+/// The solid angle (sr) of triangle `v` seen from `p`, by Van Oosterom and
+/// Strackee's form (the spherical excess from the angles would cancel to a
+/// few 1e-4 of a grazing triangle's Ω); None below `MIN_SOLID_ANGLE` or
+/// with p in the triangle's plane (inside it the formula's limit is 2π, but
+/// every direction grazes it). Single precision: it is asked for every
+/// light sample near an emitter, most of which it turns away.
+pub fn solid_angle(p: Vec3, v: &[Vec3; 3]) -> Option<f32> {
+    let [a, b, c] = v.map(|x| (x - p).normalize_or_zero());
+    let triple = a.dot(b.cross(c));
+    let omega = 2.0 * triple.abs().atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+    (omega > MIN_SOLID_ANGLE && triple.abs() >= 1e-6).then_some(omega)
+}
+
 impl SphericalTriangle {
-    /// The triangle `v` seen from `p`; None when it covers less than
-    /// `MIN_SOLID_ANGLE` from there (p in or near the triangle's plane, or
-    /// far away), where sampling by area serves as well.
-    pub fn new(p: Vec3, v: &[Vec3; 3]) -> Option<Self> {
+    /// The triangle `v` seen from `p`, which covers `solid_angle` (from
+    /// `solid_angle`) there; None when degenerate.
+    pub fn new(p: Vec3, v: &[Vec3; 3], solid_angle: f32) -> Option<Self> {
         let [a, b, c] = v.map(|x| (x.as_dvec3() - p.as_dvec3()).normalize_or_zero());
-        // Van Oosterom and Strackee's form: the spherical excess from the
-        // angles would cancel to a few 1e-4 of a grazing triangle's Ω.
-        let triple = a.dot(b.cross(c));
-        let solid_angle = 2.0 * triple.abs().atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
-        // In the plane (inside the triangle the formula's limit is 2π, but
-        // every direction grazes it): no spherical triangle.
-        if !(solid_angle > MIN_SOLID_ANGLE as f64) || triple.abs() < 1e-6 {
-            return None;
-        }
         // The angle at a between the sides ab and ac, from the normals of
         // their great circles.
         let (ab, ac) = (a.cross(b).normalize_or_zero(), a.cross(c).normalize_or_zero());
         let alpha = ab.cross(ac).length().atan2(ab.dot(ac));
-        (ab != DVec3::ZERO && ac != DVec3::ZERO).then_some(SphericalTriangle { a, b, c, alpha, solid_angle: solid_angle as f32 })
+        (ab != DVec3::ZERO && ac != DVec3::ZERO).then_some(SphericalTriangle { a, b, c, alpha, solid_angle })
     }
 
     /// A unit direction uniform over the solid angle, 1/Ω its density.
@@ -81,7 +84,12 @@ mod tests {
     use super::*;
     use crate::rng::Rng;
 
-    /// Van Oosterom and Strackee's solid angle of a plane triangle.
+    fn view(p: Vec3, v: &[Vec3; 3]) -> Option<SphericalTriangle> {
+        SphericalTriangle::new(p, v, super::solid_angle(p, v)?)
+    }
+
+    /// Van Oosterom and Strackee's solid angle of a plane triangle, in
+    /// double precision.
     fn solid_angle(p: Vec3, v: &[Vec3; 3]) -> f64 {
         let [a, b, c] = v.map(|x| x.as_dvec3() - p.as_dvec3());
         let (la, lb, lc) = (a.length(), b.length(), c.length());
@@ -155,7 +163,7 @@ mod tests {
     #[test]
     fn the_solid_angle_is_the_plane_triangles() {
         for (p, v) in views() {
-            let st = SphericalTriangle::new(p, &v).unwrap();
+            let st = view(p, &v).unwrap();
             let exact = solid_angle(p, &v);
             assert!(((st.solid_angle as f64) / exact - 1.0).abs() < 1e-4, "{p}: {} vs {exact}", st.solid_angle);
         }
@@ -167,7 +175,7 @@ mod tests {
     fn directions_are_uniform_in_solid_angle() {
         let cells = cells(3);
         for (p, v) in views() {
-            let st = SphericalTriangle::new(p, &v).unwrap();
+            let st = view(p, &v).unwrap();
             let expected: Vec<f64> = cells.iter().map(|c| solid_angle(p, &c.map(|b| at(&v, b))) / st.solid_angle as f64).collect();
             let n = 200_000;
             let mut counts = vec![0u32; cells.len()];
@@ -189,10 +197,10 @@ mod tests {
     #[test]
     fn degenerate_views_give_none() {
         let v = [Vec3::ZERO, Vec3::X, Vec3::Y];
-        assert!(SphericalTriangle::new(Vec3::new(0.2, 0.2, 0.0), &v).is_none());
-        assert!(SphericalTriangle::new(Vec3::ZERO, &v).is_none());
-        assert!(SphericalTriangle::new(Vec3::new(5.0, 5.0, 0.0), &v).is_none());
-        assert!(SphericalTriangle::new(Vec3::new(0.2, 0.2, 1e-6), &v).is_some(), "just above: Ω near 2π");
-        assert!(SphericalTriangle::new(Vec3::new(0.2, 0.2, 1e3), &v).is_none(), "too small to matter");
+        assert!(view(Vec3::new(0.2, 0.2, 0.0), &v).is_none());
+        assert!(view(Vec3::ZERO, &v).is_none());
+        assert!(view(Vec3::new(5.0, 5.0, 0.0), &v).is_none());
+        assert!(view(Vec3::new(0.2, 0.2, 1e-6), &v).is_some(), "just above: Ω near 2π");
+        assert!(view(Vec3::new(0.2, 0.2, 1e3), &v).is_none(), "too small to matter");
     }
 }
