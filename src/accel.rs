@@ -189,6 +189,15 @@ impl Accel {
         })
     }
 
+    /// The same BVH queried as obvhs's own examples do, with its triangle
+    /// test and none of the fixes above: the yardstick of `glint render
+    /// --traversal`. None without triangles.
+    pub fn obvhs_alone(&self, triangles: &[Triangle]) -> Option<ObvhsAlone<'_>> {
+        let bvh = self.bvh.as_ref()?;
+        let tris = self.ids.iter().map(|&i| triangles[i as usize].p.map(Vec3A::from)).map(|[a, b, c]| obvhs::rt_triangle::RtTriangle::new(a, b, c)).collect();
+        Some(ObvhsAlone { bvh, tris })
+    }
+
     /// Reference closest hit by testing every triangle (for tests).
     pub fn intersect_brute_force(triangles: &[Triangle], origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
         let mut best: Option<Hit> = None;
@@ -200,6 +209,29 @@ impl Accel {
             }
         }
         best
+    }
+}
+
+/// See `Accel::obvhs_alone`.
+pub struct ObvhsAlone<'a> {
+    bvh: &'a CwBvh,
+    tris: Vec<obvhs::rt_triangle::RtTriangle>,
+}
+
+impl ObvhsAlone<'_> {
+    /// Distance to the closest hit within (0, tmax), if any.
+    #[inline]
+    pub fn closest(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<f32> {
+        let mut hit = RayHit::none();
+        let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
+        self.bvh.ray_traverse(ray, &mut hit, |ray, id| self.tris[id].intersect(ray)).then_some(hit.t)
+    }
+
+    /// Whether anything lies within (0, tmax).
+    #[inline]
+    pub fn blocked(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
+        !self.bvh.ray_traverse_miss(ray, |ray, id| self.tris[id].intersect(ray))
     }
 }
 

@@ -44,6 +44,7 @@ use crate::accel::{Accel, Hit};
 use crate::bsdf::Bsdf;
 use crate::features::{Features, Kernel};
 use crate::lights::{LightChoice, LightSample, Lights};
+use crate::traversal_bench::{RayKind, RayLog, TracedRay};
 use crate::punctual::PunctualLight;
 use crate::material::Surface;
 use crate::render::RenderSettings;
@@ -68,6 +69,9 @@ pub struct Context<'a> {
     pub lights: Lights,
     /// What the scene uses, which picks the kernel.
     pub features: Features,
+    /// Where a benchmark keeps the rays traced (traversal_bench.rs); None
+    /// in every render a user asks for.
+    pub ray_log: Option<RayLog>,
 }
 
 impl<'a> Context<'a> {
@@ -77,7 +81,7 @@ impl<'a> Context<'a> {
         let (lamps, lamp_time) = Accel::build_subset(&scene.triangles, &lamps);
         let lights = Lights::new(scene);
         let features = Features::of(scene);
-        (Context { scene, accel, lamps, lights, features }, surface_time + lamp_time)
+        (Context { scene, accel, lamps, lights, features, ray_log: None }, surface_time + lamp_time)
     }
 
     /// The kernel these settings run on this scene.
@@ -94,7 +98,10 @@ impl<'a> Context<'a> {
     /// surface it passes through (MASK, BLEND; shading.rs) is skipped as the
     /// traversal meets it.
     #[inline]
-    fn intersect(&self, o: Vec3, d: Vec3, rng: &mut Rng) -> Option<Hit> {
+    fn intersect(&self, o: Vec3, d: Vec3, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
+        if let Some(log) = &self.ray_log {
+            log.push(TracedRay { kind, origin: o, dir: d, tmax: f32::INFINITY, skip: u32::MAX });
+        }
         if self.features.alpha == 0 {
             return self.accel.intersect(o, d, f32::INFINITY);
         }
@@ -104,6 +111,9 @@ impl<'a> Context<'a> {
     /// Whether a shadow ray is blocked, not counting triangle `skip`.
     #[inline]
     fn occluded(&self, o: Vec3, d: Vec3, tmax: f32, skip: u32, rng: &mut Rng) -> bool {
+        if let Some(log) = &self.ray_log {
+            log.push(TracedRay { kind: RayKind::Shadow, origin: o, dir: d, tmax, skip });
+        }
         if self.features.alpha == 0 {
             return self.accel.occluded_except(o, d, tmax, skip);
         }
@@ -447,7 +457,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false };
     rays.camera += 1;
     for depth in 0..max_depth {
-        let hit = ctx.intersect(o, d, rng);
+        let hit = ctx.intersect(o, d, if depth == 0 { RayKind::Camera } else { RayKind::Bounce }, rng);
         // A lamp in front of the surface adds its light; the ray goes on.
         let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
         if let Some(lamp) = lamp {

@@ -22,6 +22,7 @@ pub mod scene;
 pub mod shading;
 pub mod spherical_triangle;
 pub mod texture;
+pub mod traversal_bench;
 pub mod watch;
 
 /// The default scene, compiled into the binary so it renders from anywhere.

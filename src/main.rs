@@ -150,6 +150,11 @@ struct RenderArgs {
     /// Print timings and ray throughput by kind.
     #[arg(long)]
     stats: bool,
+    /// Then trace the rays of one more sample per pixel again on one
+    /// thread, through Glint's traversal and through obvhs alone, and print
+    /// both rates by ray kind and the share of the render spent traversing.
+    #[arg(long)]
+    traversal: bool,
 }
 
 #[derive(Args)]
@@ -204,7 +209,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let pool = thread_pool(args.options.threads)?;
     let threads = pool.current_num_threads();
 
-    let (ctx, build_time) = Context::new(&scene);
+    let (mut ctx, build_time) = Context::new(&scene);
     eprintln!("{}", ctx.features_line(&settings));
     // The Principled energy tables are built once per process, and only for
     // a kernel that has a glossy layer; build them before the clock starts,
@@ -255,6 +260,27 @@ fn render(args: RenderArgs) -> Result<()> {
             eprintln!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);
         }
     }
+    if args.traversal {
+        traversal_report(&mut ctx, &settings, &pool, &stats, seconds, threads)?;
+    }
+    Ok(())
+}
+
+/// `--traversal`: see traversal_bench.rs.
+fn traversal_report(ctx: &mut Context, settings: &glint::render::RenderSettings, pool: &rayon::ThreadPool, stats: &PassStats, seconds: f64, threads: usize) -> Result<()> {
+    use glint::traversal_bench::{replay, traversal_share, RayLog};
+    ctx.ray_log = Some(RayLog::default());
+    let mut film = Film::new(settings.width, settings.height);
+    pool.install(|| render_pass(ctx, settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}))?;
+    let rays = ctx.ray_log.take().map(|log| log.take()).unwrap_or_default();
+    let rates = replay(ctx, &rays, 3);
+    eprintln!("traversal on 1 thread, the rays of one more sample per pixel: Glint's queries against obvhs alone");
+    for (kind, r) in &rates {
+        let share = if r.obvhs > 0.0 { 100.0 * r.glint / r.obvhs } else { 0.0 };
+        let same = 100.0 * r.agree as f64 / r.rays.max(1) as f64;
+        eprintln!("  {:<6} {:>9} rays: {:.2} Mrays/s, obvhs alone {:.2} ({share:.0}%); same result on {same:.2}%", format!("{kind:?}").to_lowercase(), r.rays, r.glint, r.obvhs);
+    }
+    eprintln!("traversal share of the render's thread time: {:.0}%", 100.0 * traversal_share(&rates, &stats.rays, seconds, threads));
     Ok(())
 }
 
