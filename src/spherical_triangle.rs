@@ -20,6 +20,11 @@ pub struct SphericalTriangle {
     c: DVec3,
     /// The interior angle at `a`.
     alpha: f64,
+    /// The area Arvo's construction sweeps: the solid angle in double
+    /// precision, so that its last sub-triangle ends on the far side (the
+    /// single-precision one, whose reciprocal is the density, may overshoot
+    /// it by 1e-6 and send samples past a grazing edge).
+    area: f64,
     /// Solid angle (sr).
     pub solid_angle: f32,
 }
@@ -50,7 +55,8 @@ impl SphericalTriangle {
         // their great circles.
         let (ab, ac) = (a.cross(b).normalize_or_zero(), a.cross(c).normalize_or_zero());
         let alpha = ab.cross(ac).length().atan2(ab.dot(ac));
-        (ab != DVec3::ZERO && ac != DVec3::ZERO).then_some(SphericalTriangle { a, b, c, alpha, solid_angle })
+        let area = 2.0 * a.dot(b.cross(c)).abs().atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+        (ab != DVec3::ZERO && ac != DVec3::ZERO).then_some(SphericalTriangle { a, b, c, alpha, area, solid_angle })
     }
 
     /// A unit direction uniform over the solid angle, 1/Ω its density.
@@ -58,7 +64,7 @@ impl SphericalTriangle {
     /// the point along the arc from b to that cut.
     pub fn sample(&self, u: Vec2) -> Vec3 {
         let (a, b, c, alpha) = (self.a, self.b, self.c, self.alpha);
-        let area = u.x as f64 * self.solid_angle as f64;
+        let area = u.x as f64 * self.area;
         // The vertex ĉ on arc ac whose triangle a b ĉ has this area.
         let (s, t) = (area - alpha).sin_cos();
         let (sin_alpha, cos_alpha) = alpha.sin_cos();
@@ -150,6 +156,10 @@ mod tests {
             (Vec3::new(-1.0, 0.4, 0.05), v),
             (Vec3::new(0.8, 0.3, -0.7), v),
             (Vec3::new(0.7, 0.5, 1e-3), v),
+            (Vec3::new(1.0, 1e-4, 0.01), v),
+            (Vec3::new(1.0, -1e-4, 0.01), v),
+            (Vec3::new(1e-4, 1e-4, 0.01), v),
+            (Vec3::new(1.0, 0.0, 0.01), v),
             // Half a 20 km ceiling, 1 m above: its corners 1e-4 rad above
             // the horizon, where single precision sent samples off the
             // triangle. The point is above the inside of one cell: above a
@@ -186,7 +196,7 @@ mod tests {
                 let b = barycentrics(p, w, &v);
                 let slack = 1e-3 / p.z.abs().min(1.0);
                 assert!(b.x > -slack && b.y > -slack && b.x + b.y < 1.0 + slack, "{p}: off the triangle at {b}");
-                counts[cell_of(b, &cells).expect("every sample in a cell")] += 1;
+                counts[cell_of(b, &cells).unwrap_or_else(|| panic!("{p}: sample at {b} in no cell"))] += 1;
             }
             let chi2: f64 = counts.iter().zip(&expected).map(|(&o, &e)| (o as f64 - n as f64 * e).powi(2) / (n as f64 * e)).sum();
             // 63 degrees of freedom: the 99.99th percentile is about 115.
