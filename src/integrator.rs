@@ -22,14 +22,19 @@
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
 //!   that light was already counted by L_dir.
 //! * Russian roulette from depth `RR_START_DEPTH` on, surviving with
-//!   probability q = min(max channel of the throughput, 0.95); `max_depth`
-//!   caps the number of scattering events (1 = direct light only).
+//!   probability q = min(√(max channel of the throughput), 0.95), Cycles'
+//!   rule; `max_depth` caps the number of scattering events (1 = direct
+//!   light only).
 //!
 //! With `mis` on (Veach 1997), both strategies count emitters and each
 //! contribution is weighted by the power heuristic w = p²/(p² + p_other²),
 //! both pdfs in solid angle: p_light = pdf_A r² / |cosθ'| (or p_pick/Ω) for
-//! the light sampling above, p_bsdf from the BSDF. At the last vertex a path cannot
-//! extend, so its light sample takes the whole weight. A ray from a delta
+//! the light sampling above, p_bsdf from the BSDF. At the last vertex
+//! `max_depth` allows, the BSDF ray is still traced, for the light it
+//! reaches only (Cycles' "terminate after transparent"): without it that
+//! vertex's light sample would take the whole weight, and a direct-light-only
+//! render (max_depth 1) of a World-lit floor was ~1000× noisier than
+//! Cycles'. A ray from a delta
 //! lobe (a perfect mirror) is the only strategy that can reach the emitter
 //! it hits, so that emission takes weight 1; light samples see f = 0 there.
 //!
@@ -456,7 +461,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let (mut o, mut d) = (origin, dir);
     let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false };
     rays.camera += 1;
-    for depth in 0..max_depth {
+    // depth == max_depth: the ray after the last vertex, which only
+    // gathers the light it reaches.
+    for depth in 0..=max_depth {
         let hit = ctx.intersect(o, d, if depth == 0 { RayKind::Camera } else { RayKind::Bounce }, rng);
         // A lamp in front of the surface adds its light; the ray goes on.
         let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
@@ -482,14 +489,17 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             let le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
             l += beta * emission_seen(ctx, si.triangle, le, hit.t, si.ng.dot(d), &from, settings.mis);
         }
+        if depth == max_depth {
+            break;
+        }
         let wo = si.frame.to_local(-d);
         let bsdf = B::new(&si.surface, wo);
-        let can_extend = depth + 1 < max_depth;
         if AREA || PUNCTUAL || ctx.lights.has_world() {
-            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis && can_extend, rng, rays);
+            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, rng, rays);
         }
-
-        if !can_extend {
+        // Under the seed's rule a ray after the last vertex could only see
+        // the World behind a mirror: paths end here, as the seed's did.
+        if depth + 1 == max_depth && !settings.mis {
             break;
         }
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { break };
@@ -499,7 +509,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         beta *= s.weight;
         if depth + 1 >= RR_START_DEPTH {
-            let q = beta.max_element().min(RR_MAX_SURVIVAL);
+            // The square root keeps dim paths alive longer than q = max β
+            // would: on the benchmark scenes it costs 3-12% more time per
+            // sample for 14-23% less error (Cycles uses it too). The cap
+            // ends paths in a white furnace.
+            let q = beta.max_element().sqrt().min(RR_MAX_SURVIVAL);
             if !(rng.next_f32() < q) {
                 break;
             }

@@ -229,6 +229,72 @@ fn a_world_and_a_lamp_add_up_whatever_the_world_is_picked_with() {
     }
 }
 
+/// The last vertex `max_depth` allows still traces its BSDF ray, for the
+/// light it reaches only, as Cycles does ("terminate after transparent"):
+/// its light sample is MIS-weighted, not left to carry the whole estimate.
+/// A direct-light-only render (max_depth 1) of glossy metal (roughness 0.3)
+/// under a World and a disk lamp: light sampling alone (the seed's rule,
+/// `mis` off), which the last vertex used before whatever `mis` said, draws
+/// the World uniformly over the hemisphere, mostly where the lobe is not.
+/// Both are unbiased, so their means agree; with MIS the noise per pixel
+/// is 0.35× that of light sampling alone (measured: 0.93 against 2.6 at
+/// 16 spp; before, the two were the same estimator, ratio 1).
+#[test]
+fn direct_light_only_weighs_both_strategies_at_the_last_vertex() {
+    let (r, h, power, sky) = (0.5f32, 1.0f32, 50.0f32, 0.3f32);
+    let metal = glint::material::Material { name: "metal".into(), base_color: Vec3::splat(0.9), metallic: 1.0, roughness: 0.3, ..Default::default() };
+    let mut scene = Scene::new(
+        common::horizontal_quad(Vec3::ZERO, 1e3, 0.0, true, 0),
+        vec![metal],
+        common::look_at(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, 0.6),
+    );
+    scene.background = Vec3::splat(sky);
+    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, h, 0.0));
+    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false };
+    glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
+    // The noise of a pixel, from the difference of two seeds' images; the
+    // mean over both.
+    let mut estimates = Vec::new();
+    for mis in [true, false] {
+        let [a, b] = [5, 6].map(|seed| {
+            let (img, stats) = render(&scene, &RenderSettings { mis, ..settings(32, 32, 16, 1, seed) }, 2);
+            common::assert_clean(&img, &stats, "direct light only");
+            img
+        });
+        let n = a.len() as f64;
+        let mean = a.iter().chain(&b).map(|p| p.x as f64).sum::<f64>() / (2.0 * n);
+        let noise = (a.iter().zip(&b).map(|(p, q)| ((p.x - q.x) as f64).powi(2) / 2.0).sum::<f64>() / n).sqrt();
+        let se = noise / (2.0 * n).sqrt();
+        eprintln!("mis {mis}: mean {mean:.5} (se {se:.5}), noise per pixel {noise:.5}");
+        estimates.push((mean, se, noise));
+    }
+    let ((a, sa, na), (b, sb, nb)) = (estimates[0], estimates[1]);
+    assert!((a - b).abs() < 5.0 * (sa * sa + sb * sb).sqrt(), "with MIS {a} ± {sa}, light sampling alone {b} ± {sb}");
+    assert!(na < 0.5 * nb, "noise per pixel with MIS {na} against light sampling alone {nb}");
+}
+
+/// With one scattering event allowed, a perfect mirror still shows what
+/// its BSDF ray reaches, as in Cycles with Max Bounces 0: light samples
+/// cannot follow a delta lobe, so before the last vertex traced its ray the
+/// mirror came out black. Under a World of radiance Lw a mirror of F0 = 1
+/// shows Lw exactly.
+#[test]
+fn a_mirror_shows_the_world_with_direct_light_only() {
+    let sky = Vec3::new(0.2, 0.5, 1.0);
+    let mirror = glint::material::Material { name: "mirror".into(), base_color: Vec3::ONE, metallic: 1.0, roughness: 0.0, ..Default::default() };
+    let mut scene = Scene::new(
+        common::horizontal_quad(Vec3::ZERO, 1e3, 0.0, true, 0),
+        vec![mirror],
+        common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, -1.0), 0.3),
+    );
+    scene.background = sky;
+    let (img, stats) = render(&scene, &RenderSettings { mis: true, ..settings(8, 8, 4, 1, 1) }, 1);
+    common::assert_clean(&img, &stats, "mirror");
+    for p in &img {
+        assert!((*p - sky).abs().max_element() < 1e-4, "{p} vs {sky}");
+    }
+}
+
 /// Punctual lights on a Lambertian floor of albedo ρ: below a point light of
 /// intensity I at height h the floor's radiance is ρ/π · I/h²; under a sun
 /// of irradiance E at 60° from the zenith, ρ/π · E cos 60°. Each alone and
