@@ -5,14 +5,16 @@
 //! density pdf_A = p_local · π·lum(Le) / P_total: the same for every point of
 //! every emitter of that radiance, so it depends on the material.
 //!
-//! The World is picked first, with a probability that depends on the
-//! shading point p: its irradiance π·lum(L̄) against what the other lights
-//! give there, estimated as their power from their bounding sphere,
-//! P_total / (4π·max(d², R²)), plus suns' irradiance. Weighing the World
-//! by a power over the scene's bounding sphere (as before, and pbrt's power
-//! sampler) let a large floor hand it most light samples: under a 1 m²
-//! lamp on a 20 m floor it took 57% of them for ~8% of the light.
-//! p_local = 1 − p_world.
+//! The distant lights — the World and suns — are picked first, as a
+//! group, with a probability that depends on the shading point p: their
+//! irradiance (π·lum(L̄) for the World, lum(E) for a sun) against what the
+//! other lights give there, estimated as their power from their bounding
+//! sphere, P_total / (4π·max(d², R²)); within the group, by irradiance.
+//! Weighing distant lights by a power over the scene's bounding sphere (as
+//! before, and pbrt's power sampler) let a large floor hand them most light
+//! samples: under a 1 m² lamp on a 20 m floor the World took 57% of them for
+//! ~8% of the light, and a sun over a 2 km floor left a 40 W bulb one light
+//! sample in 40,000. p_local = 1 − p_distant.
 //!
 //! A point on the chosen triangle is drawn by area, or, when the shading
 //! point is close to the triangle (its longest edge longer than the
@@ -37,13 +39,17 @@ pub struct Lights {
     /// π·lum(L̄) of the World, its irradiance on an open surface; 0 when
     /// it is black.
     world_irradiance: f32,
-    /// The other lights as the World's share sees them: power of emitting
-    /// triangles, points and spots (W), the centre and squared radius of a
-    /// sphere holding them, and the suns' irradiance (W·m⁻²).
+    /// The local lights as the distant group's share sees them: power of
+    /// emitting triangles, points and spots (W), the centre and squared
+    /// radius of a sphere holding them.
     local_power: f32,
     local_centre: Vec3,
     local_radius2: f32,
-    sun_irradiance: f32,
+    /// Scene punctual index and luminance irradiance (W·m⁻²) of each sun;
+    /// they have no weight in `distribution`.
+    suns: Vec<(usize, f32)>,
+    /// The World's irradiance plus the suns'.
+    distant_irradiance: f32,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
 }
@@ -84,18 +90,22 @@ impl Lights {
             powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
         }
         // Where the local lights are, and their power.
-        let (mut lo, mut hi, mut local_power, mut sun_irradiance) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64, 0.0f32);
+        let (mut lo, mut hi, mut local_power, mut suns) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64, Vec::new());
         for (&t, &power) in triangles.iter().zip(&powers) {
             let tri = &scene.triangles[t as usize];
             tri.p.iter().for_each(|&v| (lo, hi) = (lo.min(v), hi.max(v)));
             local_power += power;
         }
-        for (light, &power) in scene.punctual.iter().zip(&powers[triangles.len()..]) {
+        for (index, (light, power)) in scene.punctual.iter().zip(&mut powers[triangles.len()..]).enumerate() {
             if let crate::punctual::PunctualKind::Sun = light.kind {
-                sun_irradiance += luminance(light.intensity);
+                let irradiance = luminance(light.intensity);
+                if irradiance > 0.0 && irradiance.is_finite() {
+                    suns.push((index, irradiance));
+                }
+                *power = 0.0;
             } else {
                 (lo, hi) = (lo.min(light.position), hi.max(light.position));
-                local_power += power;
+                local_power += *power;
             }
         }
         let (local_centre, local_radius2) = if lo.x <= hi.x { (0.5 * (lo + hi), (0.5 * (hi - lo)).length_squared()) } else { (Vec3::ZERO, 0.0) };
@@ -110,13 +120,14 @@ impl Lights {
             local_power: local_power as f32,
             local_centre,
             local_radius2,
-            sun_irradiance,
+            distant_irradiance: world_irradiance + suns.iter().map(|&(_, e)| e).sum::<f32>(),
+            suns,
             sized,
         }
     }
 
     pub fn is_empty(&self) -> bool {
-        self.distribution.is_empty() && !self.has_world()
+        self.distribution.is_empty() && !(self.distant_irradiance > 0.0)
     }
 
     /// Whether light sampling picks the World.
@@ -124,30 +135,38 @@ impl Lights {
         self.world_irradiance > 0.0
     }
 
-    /// The probability of picking the World for a point at `p`: 1 without
-    /// other lights, else its share of the estimated irradiance, kept in
-    /// [0.05, 0.95] so that neither side starves where the estimate is
-    /// crude.
-    pub fn world_probability(&self, p: Vec3) -> f32 {
-        if !self.has_world() {
+    /// The probability of picking the distant group (World and suns) for a
+    /// point at `p`: 1 without local lights, else its share of the
+    /// estimated irradiance, kept in [0.05, 0.95] so that neither side
+    /// starves where the estimate is crude.
+    fn distant_probability(&self, p: Vec3) -> f32 {
+        if !(self.distant_irradiance > 0.0) {
             return 0.0;
         }
         if self.distribution.is_empty() {
             return 1.0;
         }
         let d2 = (p - self.local_centre).length_squared().max(self.local_radius2).max(1e-12);
-        let local = self.local_power / (4.0 * std::f32::consts::PI * d2) + self.sun_irradiance;
-        let share = self.world_irradiance / (self.world_irradiance + local);
+        let local = self.local_power / (4.0 * std::f32::consts::PI * d2);
+        let share = self.distant_irradiance / (self.distant_irradiance + local);
         if share.is_finite() { share.clamp(0.05, 0.95) } else { 0.5 }
+    }
+
+    /// The probability of picking the World for a point at `p`.
+    pub fn world_probability(&self, p: Vec3) -> f32 {
+        if !self.has_world() {
+            return 0.0;
+        }
+        self.distant_probability(p) * (self.world_irradiance / self.distant_irradiance)
     }
 
     /// Area density of every point on an emitter of radiance `le`, for a
     /// point at `p`.
     pub fn pdf_area(&self, le: Vec3, p: Vec3) -> f32 {
-        (1.0 - self.world_probability(p)) * self.local_pdf_area(le)
+        (1.0 - self.distant_probability(p)) * self.local_pdf_area(le)
     }
 
-    /// The same, once the World was not picked.
+    /// The same, once a local light is to be picked.
     fn local_pdf_area(&self, le: Vec3) -> f32 {
         if self.total_power > 0.0 { (std::f64::consts::PI * luminance(le) as f64 / self.total_power) as f32 } else { 0.0 }
     }
@@ -155,7 +174,10 @@ impl Lights {
     /// The probability `sample` picks scene punctual light `index` for a
     /// point at `p`.
     pub fn punctual_probability(&self, index: usize, p: Vec3) -> f32 {
-        (1.0 - self.world_probability(p)) * self.distribution.probability(self.triangles.len() + index) as f32
+        if let Some(&(_, irradiance)) = self.suns.iter().find(|&&(i, _)| i == index) {
+            return self.distant_probability(p) * (irradiance / self.distant_irradiance);
+        }
+        (1.0 - self.distant_probability(p)) * self.distribution.probability(self.triangles.len() + index) as f32
     }
 
     /// A light for a point at `p`.
@@ -163,12 +185,27 @@ impl Lights {
         if self.is_empty() {
             return None;
         }
-        let world = self.world_probability(p);
-        if u_pick < world {
-            return Some(LightChoice::World { probability: world });
+        let distant = self.distant_probability(p);
+        if u_pick < distant {
+            // Within the group by irradiance: the World, then each sun.
+            let mut rest = u_pick / distant * self.distant_irradiance - self.world_irradiance;
+            if rest < 0.0 {
+                return Some(LightChoice::World { probability: self.world_probability(p) });
+            }
+            for &(index, irradiance) in &self.suns {
+                rest -= irradiance;
+                if rest < 0.0 {
+                    return Some(LightChoice::Punctual { index, probability: distant * (irradiance / self.distant_irradiance) });
+                }
+            }
+            // Rounding past the last one: it is the last one.
+            return Some(match self.suns.last() {
+                Some(&(index, irradiance)) => LightChoice::Punctual { index, probability: distant * (irradiance / self.distant_irradiance) },
+                None => LightChoice::World { probability: self.world_probability(p) },
+            });
         }
-        let local = 1.0 - world;
-        let pick = self.distribution.sample(((u_pick - world) / local).min(1.0 - f32::EPSILON));
+        let local = 1.0 - distant;
+        let pick = self.distribution.sample(((u_pick - distant) / local).min(1.0 - f32::EPSILON));
         if pick >= self.triangles.len() {
             let probability = local * self.distribution.probability(pick) as f32;
             return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });

@@ -321,6 +321,13 @@ fn point_and_sun_light_a_floor_as_the_inverse_square_and_cosine_laws_say() {
         let (mean, se) = mean_and_standard_error(&values);
         // The camera sees a 1 cm spot: the light varies by < 1e-5 over it.
         assert!((mean - expected as f64).abs() < 5.0 * se + 1e-4 * expected as f64, "{mean} vs {expected} (se {se})");
+        // Both lights get samples: the sun is picked by its irradiance
+        // share, not by a power over the 2 km floor's bounding sphere,
+        // which left the bulb one sample in 40,000 (and, on a bad seed, a
+        // mean of the sun alone with a standard error of 0).
+        eprintln!("{} lights: {mean:.5} vs {expected:.5} (se {se:.6})", scene.punctual.len());
+        assert!(se > 0.0 || scene.punctual.len() == 1, "one light was never picked");
+        assert!(se < 0.01 * expected as f64, "standard error {se}");
     }
 }
 
