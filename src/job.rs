@@ -37,6 +37,7 @@ pub struct JobOptions {
     pub features: Option<FeatureMode>,
     /// An environment image for the World (replaces `background`).
     pub environment: Option<crate::request::EnvironmentRequest>,
+    pub sampler: Option<crate::rng::Sampler>,
 }
 
 impl JobOptions {
@@ -58,6 +59,7 @@ impl JobOptions {
             two_sided_emission: self.two_sided_emission.or(f.two_sided_emission),
             features: self.features.or(f.features),
             environment: self.environment.or(f.environment),
+            sampler: self.sampler.or(f.sampler),
         }
     }
 }
@@ -78,6 +80,7 @@ impl From<&RenderRequest> for JobOptions {
             bsdf: r.bsdf,
             two_sided_emission: r.two_sided_emission,
             features: None,
+            sampler: None,
             environment: r.environment.clone(),
         }
     }
@@ -179,6 +182,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         mis: options.mis.unwrap_or(true),
         bsdf: options.bsdf.unwrap_or_default(),
         features: options.features.unwrap_or_default(),
+        sampler: options.sampler.unwrap_or_default(),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

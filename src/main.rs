@@ -12,6 +12,7 @@ use glint::progressive::render_progressive;
 use glint::render::{render_pass, Film, PassStats};
 use glint::request::EnvironmentRequest;
 use glint::request::RenderRequest;
+use glint::rng::Sampler;
 use glint::watch::WatchOptions;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -68,6 +69,10 @@ struct RenderOptions {
     /// Random seed: the same seed gives the same image [default: 0].
     #[arg(long)]
     seed: Option<u64>,
+    /// Where each pixel sample's numbers come from: Owen-scrambled Sobol
+    /// points, or independent random numbers (the seed's) [default: sobol].
+    #[arg(long, value_parser = ["sobol", "random"])]
+    sampler: Option<String>,
     /// Camera to render, by node or camera name, or `auto`: one that frames
     /// the scene (lit by a white World when it has no lights) [default: the
     /// first perspective camera].
@@ -109,6 +114,7 @@ impl RenderOptions {
             max_depth: self.max_depth,
             seed: self.seed,
             mis: self.mis.as_deref().map(|m| m == "on"),
+            sampler: self.sampler.as_deref().map(|s| if s == "random" { Sampler::Random } else { Sampler::Sobol }),
             camera: self.camera.clone(),
             scene_index: self.scene_index,
             background: self.background.as_ref().map(|b| [b[0], b[1], b[2]]),

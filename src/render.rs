@@ -6,7 +6,7 @@
 use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf, WithGlass};
 use crate::features::{FeatureMode, KernelBsdf};
 use crate::integrator::{radiance, Context, RayCounts};
-use crate::rng::Rng;
+use crate::rng::{Rng, Sampler};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -39,6 +39,8 @@ pub struct RenderSettings {
     pub bsdf: BsdfModel,
     /// The kernel the scene needs, or the general one (features.rs).
     pub features: FeatureMode,
+    /// Where each pixel sample's numbers come from (rng.rs).
+    pub sampler: Sampler,
 }
 
 /// Sums of radiance samples per pixel, row-major from the top-left.
@@ -147,7 +149,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     let pixel = y as u64 * w as u64 + x as u64;
                     let mut sum = Vec3::ZERO;
                     for s in samples.clone() {
-                        let mut rng = Rng::for_sample(settings.seed, pixel, s as u64);
+                        let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, pixel, s as u64);
                         let jitter = rng.next_2d();
                         let (o, d) = ctx.scene.camera.ray(Vec2::new(x as f32, y as f32) + jitter, w, h);
                         let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, o, d, settings, &mut rng, &mut stats.rays);

@@ -305,9 +305,13 @@ fn scaled_and_translated_cornell_box_renders_the_same_image() {
             assert!(e < 0.02 * noise, "scale {scale}: {e}");
         } else {
             // Far from the origin f32 snaps the geometry (1e5 m: to 7.8 mm,
-            // 0.4% of the box) and the ray offsets grow with the coordinates.
-            // Measured: 0.45× and 0.36× the noise floor, means +0.76% and +0.21%.
-            assert!(e < 0.6 * noise && (ratio - 1.0).abs() < 0.015, "shift {shift}: relMSE {e}, mean ratio {ratio}");
+            // 0.4% of the box) and the ray offsets grow with the coordinates,
+            // so many paths take other branches: the image may differ as
+            // much as another seed's does, but not more (acne or leaks would
+            // add their own error) and not in the mean. Measured: 0.64× and
+            // 0.45× the noise floor, means +0.53% and +0.51% (with
+            // independent numbers, whose noise floor is higher: 0.54×, 0.51×).
+            assert!(e < noise && (ratio - 1.0).abs() < 0.015, "shift {shift}: relMSE {e}, mean ratio {ratio}");
         }
     }
 }

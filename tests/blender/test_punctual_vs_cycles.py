@@ -99,8 +99,15 @@ def assert_agree(scene, tmp_path, what, bounces=0):
     # A punctual light is the same closed form per sample in both, so the
     # noise is small (pixel jitter across the falloff and the shadow's
     # edge); 0.2% of the tile covers single-precision arithmetic on both
-    # sides. A sized light adds its sampling noise to se.
-    tol = 5 * se + 2e-3 * c
+    # sides. A sized light adds its sampling noise to se. Both renderers
+    # stratify a pixel's jitter (Sobol points), so where a sharp edge (a
+    # sun's disk in a mirror) crosses a pixel, every seed covers it with
+    # the same count of samples and their spread reads as nil: each count
+    # is resolved to one sample, so two renderers' may differ by two
+    # samples of the brightest pixel (measured: 15 against 14 of 64 on the
+    # sun's edge, the same in both seeds of each).
+    quantum = np.maximum((c1 + c2).max(axis=(0, 1)), (g1 + g2).max(axis=(0, 1))) / 2 / SPP / n
+    tol = 5 * se + 2e-3 * c + 2 * quantum
     print(f"{what}: mean Glint/Cycles − 1 = {g.sum() / c.sum() - 1:+.4%}, worst tile {np.max(np.abs(g - c) / np.maximum(tol, 1e-12)):.2f} of tolerance")
     assert c.mean() > 0.01
     worst = np.unravel_index(np.argmax(np.abs(g - c) / tol), tol.shape)
