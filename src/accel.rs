@@ -1,18 +1,20 @@
-//! Ray queries over the scene's triangles through an obvhs compressed wide
-//! BVH (CWBVH). Triangle data is stored in BVH leaf order so a leaf's
-//! triangles sit together in memory.
+//! Ray queries over the scene's triangles. obvhs builds the tree (a
+//! compressed wide BVH, CWBVH); wide_bvh.rs lays it out again with
+//! full-precision boxes and traverses it. Triangle data is stored in BVH
+//! leaf order so a leaf's triangles sit together in memory.
 //!
-//! Three obvhs 0.4.0 pitfalls are handled here: its CWBVH traversal misses
-//! hits for rays with a `-0.0` direction component (so such components are
-//! made +0.0); its `Triangle::compute_barycentric` is wrong (so hits are
-//! computed by our own Möller–Trumbore test); and its node test ignores the
-//! ray's tmin and culls every node the ray leaves within 1e-4 (a fixed
-//! `EPSILON` in cwbvh/node.rs and simd.rs), which loses every hit closer
-//! than 0.1 mm — contact shadows, corners, and a whole scene modelled at
-//! 1e-4 scale. Traversal therefore starts from an origin moved back along
-//! the ray (see `TraversalRay`), while leaves test the true origin.
+//! Traversing obvhs 0.4.0's CWBVH directly had three pitfalls, which are
+//! why `glint render --traversal` still compares against it: it misses
+//! hits for rays with a `-0.0` direction component; its
+//! `Triangle::compute_barycentric` is wrong (hits here are computed by our
+//! own Möller–Trumbore test); and its node test ignores the ray's tmin and
+//! culls every node the ray leaves within 1e-4 (a fixed `EPSILON` in
+//! cwbvh/node.rs and simd.rs), which loses every hit closer than 0.1 mm —
+//! contact shadows, corners, and a whole scene modelled at 1e-4 scale.
+//! wide_bvh.rs' boxes start at t = 0 and are widened against rounding.
 
 use crate::scene::Triangle;
+use crate::wide_bvh::WideBvh;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::cwbvh::CwBvh;
@@ -48,7 +50,7 @@ pub struct Hit {
 }
 
 pub struct Accel {
-    bvh: Option<CwBvh>,
+    bvh: WideBvh,
     /// In BVH order: `tris[i]` is scene triangle `ids[i]`.
     tris: Vec<RtTriangle>,
     ids: Vec<u32>,
@@ -77,30 +79,14 @@ fn intersect(tri: &RtTriangle, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Opti
     (t > tmin && t < tmax).then_some((t, b1, b2))
 }
 
-/// obvhs's node-culling distance (cwbvh::node::EPSILON, not public).
-const OBVHS_NODE_EPSILON: f32 = 1e-4;
-
-/// The ray obvhs traverses: the true one moved back by `shift` along its
-/// direction, so a hit at distance t is at t + shift ≥ obvhs's epsilon.
-/// Leaves convert back with the exact shift that rounding left.
-struct TraversalRay {
-    ray: Ray,
-    shift: f32,
-}
-
-impl TraversalRay {
-    #[inline(always)]
-    fn new(o: Vec3, d: Vec3, tmax: f32) -> Self {
-        // Twice the epsilon, and enough ulps of the origin that the move
-        // survives rounding at any coordinate magnitude.
-        let ulp = o.abs().max_element() * f32::EPSILON;
-        let back = (2.0 * OBVHS_NODE_EPSILON).max(8.0 * ulp);
-        let moved = o - d * back;
-        let shift = (o - moved).dot(d);
-        // `x + 0.0` maps a -0.0 direction component to +0.0.
-        let ray = Ray::new(Vec3A::from(moved), Vec3A::from(d) + Vec3A::ZERO, 0.0, tmax + shift);
-        TraversalRay { ray, shift }
-    }
+/// obvhs's CWBVH over the given triangles.
+pub(crate) fn build_cwbvh(triangles: &[Triangle], subset: &[u32]) -> CwBvh {
+    let bvh_tris: Vec<obvhs::triangle::Triangle> = subset
+        .iter()
+        .map(|&i| &triangles[i as usize])
+        .map(|t| obvhs::triangle::Triangle { v0: t.p[0].into(), v1: t.p[1].into(), v2: t.p[2].into() })
+        .collect();
+    build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut Duration::default())
 }
 
 impl Accel {
@@ -115,18 +101,14 @@ impl Accel {
     pub fn build_subset(triangles: &[Triangle], subset: &[u32]) -> (Self, Duration) {
         let start = std::time::Instant::now();
         if subset.is_empty() {
-            return (Accel { bvh: None, tris: Vec::new(), ids: Vec::new() }, start.elapsed());
+            return (Accel { bvh: WideBvh::empty(), tris: Vec::new(), ids: Vec::new() }, start.elapsed());
         }
-        let bvh_tris: Vec<obvhs::triangle::Triangle> = subset
-            .iter()
-            .map(|&i| &triangles[i as usize])
-            .map(|t| obvhs::triangle::Triangle { v0: t.p[0].into(), v1: t.p[1].into(), v2: t.p[2].into() })
-            .collect();
-        let mut core = Duration::default();
-        let bvh = build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut core);
-        let ids: Vec<u32> = bvh.primitive_indices.iter().map(|&i| subset[i as usize]).collect();
+        let cwbvh = build_cwbvh(triangles, subset);
+        let corners: Vec<[Vec3; 3]> = subset.iter().map(|&i| triangles[i as usize].p).collect();
+        let bvh = WideBvh::from_cwbvh(&cwbvh, &corners);
+        let ids: Vec<u32> = cwbvh.primitive_indices.iter().map(|&i| subset[i as usize]).collect();
         let tris = ids.iter().map(|&i| RtTriangle::from(&triangles[i as usize])).collect();
-        (Accel { bvh: Some(bvh), tris, ids }, start.elapsed())
+        (Accel { bvh, tris, ids }, start.elapsed())
     }
 
     /// Closest hit along a unit-direction ray within (0, tmax).
@@ -139,21 +121,18 @@ impl Accel {
     /// alpha let some rays through, decided as the traversal meets them.
     #[inline]
     pub fn intersect_where(&self, origin: Vec3, dir: Vec3, tmax: f32, mut stops: impl FnMut(u32, f32, f32) -> bool) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        let tr = TraversalRay::new(origin, dir, tmax);
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
         let mut best: Option<Hit> = None;
-        bvh.ray_traverse(tr.ray, &mut RayHit::none(), |_, id| {
-            // Each accepted hit is closer than every earlier one, so only the
-            // closest survives; obvhs gets its distance along the moved ray.
-            let limit = best.map_or(tmax, |b| b.t);
-            match intersect(&self.tris[id], o, d, 0.0, limit) {
-                Some((t, b1, b2)) if stops(self.ids[id], b1, b2) => {
-                    best = Some(Hit { t, triangle: self.ids[id], b1, b2 });
-                    t + tr.shift
+        self.bvh.closest(origin, dir, tmax, |first, count, mut limit| {
+            for id in first as usize..(first + count) as usize {
+                if let Some((t, b1, b2)) = intersect(&self.tris[id], o, d, 0.0, limit) {
+                    if stops(self.ids[id], b1, b2) {
+                        best = Some(Hit { t, triangle: self.ids[id], b1, b2 });
+                        limit = t;
+                    }
                 }
-                _ => f32::INFINITY,
             }
+            limit
         });
         best
     }
@@ -175,26 +154,23 @@ impl Accel {
     /// `occluded_except`, counting only hits that `stops` accepts.
     #[inline]
     pub fn occluded_except_where(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32, mut stops: impl FnMut(u32, f32, f32) -> bool) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else { return false };
-        let tr = TraversalRay::new(origin, dir, tmax);
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
-        !bvh.ray_traverse_miss(tr.ray, |_, id| {
-            if self.ids[id] == skip {
-                return f32::INFINITY;
-            }
-            match intersect(&self.tris[id], o, d, 0.0, tmax) {
-                Some((t, b1, b2)) if stops(self.ids[id], b1, b2) => t + tr.shift,
-                _ => f32::INFINITY,
-            }
+        self.bvh.any(origin, dir, tmax, |first, count| {
+            (first as usize..(first + count) as usize).any(|id| {
+                self.ids[id] != skip && matches!(intersect(&self.tris[id], o, d, 0.0, tmax), Some((_, b1, b2)) if stops(self.ids[id], b1, b2))
+            })
         })
     }
 
     /// The same BVH queried as obvhs's own examples do, with its triangle
     /// test and none of the fixes above: the yardstick of `glint render
     /// --traversal`. None without triangles.
-    pub fn obvhs_alone(&self, triangles: &[Triangle]) -> Option<ObvhsAlone<'_>> {
-        let bvh = self.bvh.as_ref()?;
-        let tris = self.ids.iter().map(|&i| triangles[i as usize].p.map(Vec3A::from)).map(|[a, b, c]| obvhs::rt_triangle::RtTriangle::new(a, b, c)).collect();
+    pub fn obvhs_alone(&self, triangles: &[Triangle]) -> Option<ObvhsAlone> {
+        if self.ids.is_empty() {
+            return None;
+        }
+        let bvh = build_cwbvh(triangles, &self.ids);
+        let tris = bvh.primitive_indices.iter().map(|&k| triangles[self.ids[k as usize] as usize].p.map(Vec3A::from)).map(|[a, b, c]| obvhs::rt_triangle::RtTriangle::new(a, b, c)).collect();
         Some(ObvhsAlone { bvh, tris })
     }
 
@@ -213,12 +189,12 @@ impl Accel {
 }
 
 /// See `Accel::obvhs_alone`.
-pub struct ObvhsAlone<'a> {
-    bvh: &'a CwBvh,
+pub struct ObvhsAlone {
+    bvh: CwBvh,
     tris: Vec<obvhs::rt_triangle::RtTriangle>,
 }
 
-impl ObvhsAlone<'_> {
+impl ObvhsAlone {
     /// Distance to the closest hit within (0, tmax), if any.
     #[inline]
     pub fn closest(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<f32> {

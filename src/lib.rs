@@ -24,6 +24,7 @@ pub mod spherical_triangle;
 pub mod texture;
 pub mod traversal_bench;
 pub mod watch;
+pub mod wide_bvh;
 
 /// The default scene, compiled into the binary so it renders from anywhere.
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/cornell-box.gltf");
