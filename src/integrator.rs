@@ -251,6 +251,12 @@ fn toward_light<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wi: Vec3) -> Option<Vec3> {
     same_side(si, wi, local).then_some(local)
 }
 
+/// f(wo, wi) of a light sample, and the BSDF's pdf of wi where MIS needs it.
+#[inline]
+fn shade<B: Bsdf>(bsdf: &B, wo: Vec3, wi: Vec3, mis: bool) -> (Vec3, f32) {
+    if mis { bsdf.evaluate(wo, wi) } else { (bsdf.eval(wo, wi), 0.0) }
+}
+
 /// Power heuristic (β = 2) weight of a strategy with pdf `a` against `b`.
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
     if a.is_infinite() {
@@ -301,7 +307,7 @@ fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis:
         None => environment::sample_uniform(si.ng, u),
     };
     let Some(wi_local) = toward_light(si, bsdf, wi).filter(|_| pdf > 0.0) else { return Vec3::ZERO };
-    let f = bsdf.eval(wo, wi_local);
+    let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     let le = ctx.scene.world_radiance(wi);
     if f == Vec3::ZERO || le == Vec3::ZERO {
         return Vec3::ZERO;
@@ -311,7 +317,7 @@ fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis:
         return Vec3::ZERO;
     }
     let p_light = probability * pdf;
-    let weight = if mis { power_heuristic(p_light, bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    let weight = if mis { power_heuristic(p_light, bsdf_pdf) } else { 1.0 };
     le * f * (weight * wi_local.z.abs() / p_light)
 }
 
@@ -368,7 +374,7 @@ fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
 fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, light: &PunctualLight, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some(inc) = light.incident(si.p, u) else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, inc.wi) else { return Vec3::ZERO };
-    let f = bsdf.eval(wo, wi_local);
+    let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
@@ -376,7 +382,7 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
     if ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, rng) {
         return Vec3::ZERO;
     }
-    let weight = if mis && inc.pdf.is_finite() { power_heuristic(probability * inc.pdf, bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    let weight = if mis && inc.pdf.is_finite() { power_heuristic(probability * inc.pdf, bsdf_pdf) } else { 1.0 };
     f * inc.irradiance * (weight * wi_local.z.abs() / probability)
 }
 
@@ -415,7 +421,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     let cos_light = ls.normal.dot(-wi);
     let light_tri = &ctx.scene.triangles[ls.triangle as usize];
     let le = shading::emission_at(ctx.scene, &ctx.scene.materials[light_tri.material as usize], ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0);
-    let f = bsdf.eval(wo, wi_local);
+    let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     if le == Vec3::ZERO || f == Vec3::ZERO {
         return Vec3::ZERO;
     }
@@ -431,7 +437,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if !(length > 0.0) || ctx.occluded(origin, segment / length, length, ls.triangle, rng) {
         return Vec3::ZERO;
     }
-    let weight = if mis { power_heuristic(ls.pdf, bsdf.pdf(wo, wi_local)) } else { 1.0 };
+    let weight = if mis { power_heuristic(ls.pdf, bsdf_pdf) } else { 1.0 };
     le * f * (weight * wi_local.z.abs() / ls.pdf)
 }
 

@@ -72,6 +72,21 @@ pub fn sample(wo: Vec3, alpha: f32, u: Vec2) -> Option<(Vec3, Vec3)> {
     (wi.z > 0.0 && wi.is_finite()).then_some((wi, h))
 }
 
+/// `eval` and `pdf` together, sharing h, D and Λ(wo): the same numbers,
+/// bit for bit.
+#[inline]
+pub fn eval_pdf(wo: Vec3, wi: Vec3, alpha: f32) -> (f32, f32) {
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let h = (wo + wi).normalize_or_zero();
+    let d = d(h, alpha);
+    let lambda_o = lambda(wo, alpha);
+    let g2 = 1.0 / (1.0 + lambda_o + lambda(wi, alpha));
+    let g1 = 1.0 / (1.0 + lambda_o);
+    (d * g2 / (4.0 * wo.z * wi.z), d * g1 / (4.0 * wo.z))
+}
+
 pub fn pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return 0.0;

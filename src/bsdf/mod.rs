@@ -298,6 +298,11 @@ pub trait Bsdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
     /// Solid-angle pdf of `sample` producing wi, over its non-delta lobes.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// `eval` and `pdf` together (psychopath's `evaluate`): a model whose
+    /// two share work computes it once.
+    fn evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        (self.eval(wo, wi), self.pdf(wo, wi))
+    }
     /// `u_lobe` picks the lobe, `u` drives it.
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample>;
     /// Whether eval can be non-zero below the surface: lets light sampling
@@ -339,7 +344,24 @@ macro_rules! impl_bsdf {
 }
 impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
-impl_bsdf!(PrincipledBsdf);
+
+impl Bsdf for PrincipledBsdf {
+    fn new(surface: &Surface, wo: Vec3) -> Self {
+        PrincipledBsdf::new(surface, wo)
+    }
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        PrincipledBsdf::eval(self, wo, wi)
+    }
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        PrincipledBsdf::pdf(self, wo, wi)
+    }
+    fn evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        PrincipledBsdf::evaluate(self, wo, wi)
+    }
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        PrincipledBsdf::sample(self, wo, u_lobe, u)
+    }
+}
 
 pub mod dielectric;
 pub mod energy;

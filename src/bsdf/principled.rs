@@ -128,6 +128,23 @@ impl PrincipledBsdf {
         glossy + (1.0 - p) * lambert::pdf(wo, wi)
     }
 
+    /// `eval` and `pdf` at once, with the lobe's shared terms computed
+    /// once: the same numbers, bit for bit.
+    pub fn evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let p = self.glossy_probability;
+        let diffuse_pdf = (1.0 - p) * lambert::pdf(wo, wi);
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Vec3::ZERO, diffuse_pdf);
+        }
+        let diffuse = lambert::eval(self.base, wo, wi) * self.diffuse_weight;
+        if self.smooth || !self.has_glossy() {
+            return (diffuse, 0.0 + diffuse_pdf);
+        }
+        let h = (wo + wi).normalize_or_zero();
+        let (lobe, lobe_pdf) = microfacet::eval_pdf(wo, wi, self.alpha);
+        (diffuse + self.glossy_fresnel(wo.dot(h)) * lobe, p * lobe_pdf + diffuse_pdf)
+    }
+
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
@@ -139,8 +156,7 @@ impl PrincipledBsdf {
             return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
         }
         let wi = if u_lobe < p { microfacet::sample(wo, self.alpha, u)?.0 } else { lambert::sample(u) };
-        let pdf = self.pdf(wo, wi);
-        let f = self.eval(wo, wi);
+        let (f, pdf) = self.evaluate(wo, wi);
         let weight = f * (wi.z / pdf);
         (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
     }

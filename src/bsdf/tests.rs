@@ -410,3 +410,31 @@ fn principled_is_finite_at_grazing_and_back_facing_directions_and_every_roughnes
         }
     }
 }
+
+/// `evaluate` gives what `eval` and `pdf` give, bit for bit, for every
+/// model and mix, on both sides of the surface and at the rough and smooth
+/// ends: the integrator calls one where it used to call the other two.
+#[test]
+fn evaluate_is_eval_and_pdf_bit_for_bit() {
+    fn same<B: Bsdf>(m: &Surface, rng: &mut Rng) {
+        for theta in [0.0f32, 30.0, 75.0, 89.9] {
+            let wo = dir_at(theta);
+            let bsdf = B::new(m, wo);
+            for _ in 0..500 {
+                let d = crate::sampling::cosine_hemisphere(rng.next_2d());
+                let wi = if rng.next_f32() < 0.2 { -d } else { d };
+                assert_eq!(bsdf.evaluate(wo, wi), (bsdf.eval(wo, wi), bsdf.pdf(wo, wi)), "wo {wo} wi {wi}");
+            }
+        }
+    }
+    let mut rng = Rng::new(9, 9);
+    for roughness in [0.0, 0.05, 0.3, 1.0] {
+        for metallic in [0.0, 0.5, 1.0] {
+            let mut m = material(Vec3::new(0.9, 0.6, 0.2), metallic, roughness);
+            same::<SeedBsdf>(&m, &mut rng);
+            same::<PrincipledBsdf>(&m, &mut rng);
+            m.transmission = 0.7;
+            same::<WithGlass<PrincipledBsdf>>(&m, &mut rng);
+        }
+    }
+}

@@ -64,6 +64,12 @@ impl<B: Bsdf> Bsdf for WithGlass<B> {
         glass * self.glass_probability + base * (1.0 - self.glass_probability)
     }
 
+    fn evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let (glass, glass_pdf) = self.glass.as_ref().map_or((Vec3::ZERO, 0.0), |g| (g.eval(wo, wi), g.pdf(wo, wi)));
+        let (base, base_pdf) = self.base.as_ref().map_or((Vec3::ZERO, 0.0), |b| b.evaluate(wo, wi));
+        (glass * self.glass_weight + base * (1.0 - self.glass_weight), glass_pdf * self.glass_probability + base_pdf * (1.0 - self.glass_probability))
+    }
+
     fn transmits(&self) -> bool {
         self.glass.is_some_and(|g| !g.smooth)
     }
@@ -80,7 +86,7 @@ impl<B: Bsdf> Bsdf for WithGlass<B> {
             // No other part can produce a delta direction.
             return Some(BsdfSample { f: s.f * weight, pdf: s.pdf * probability, weight: s.weight * (weight / probability), ..s });
         }
-        let (f, pdf) = (self.eval(wo, s.wi), self.pdf(wo, s.wi));
+        let (f, pdf) = self.evaluate(wo, s.wi);
         let weight = f * (s.wi.z.abs() / pdf);
         (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { f, pdf, weight, ..s })
     }
