@@ -274,7 +274,8 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     if ctx.lights.is_empty() {
         return Vec3::ZERO;
     }
-    let (u_pick, u) = (rng.next_f32(), rng.next_2d());
+    // One draw: the light's point stays stratified within each pick.
+    let (u_pick, u) = rng.next_1d_2d();
     match ctx.lights.sample(ctx.scene, si.p, u_pick, u) {
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),

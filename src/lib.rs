@@ -12,6 +12,7 @@ pub mod loader;
 pub mod memory;
 pub mod material;
 pub mod output;
+pub mod parallelogram;
 pub mod progressive;
 pub mod punctual;
 pub mod render;

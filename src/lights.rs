@@ -26,6 +26,7 @@
 use crate::bsdf::luminance;
 use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Scene, Triangle};
+use crate::parallelogram::Parallelogram;
 use crate::spherical_triangle::{self, SphericalTriangle};
 use glam::{Vec2, Vec3};
 
@@ -33,6 +34,8 @@ pub struct Lights {
     /// Scene triangle index of each emitter; the distribution's entries
     /// are these, then the scene's punctual lights.
     pub triangles: Vec<u32>,
+    /// What sampling needs of each, alongside `triangles`.
+    emitters: Vec<Emitter>,
     distribution: Distribution1D,
     /// Σ of the lights' powers (luminance-weighted watts).
     total_power: f64,
@@ -52,6 +55,35 @@ pub struct Lights {
     distant_irradiance: f32,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
+}
+
+/// An emitting triangle's unit face normal and area, and the
+/// parallelogram it makes with a neighbour, if it does.
+struct Emitter {
+    normal: Vec3,
+    area: f32,
+    quad: Option<Parallelogram>,
+}
+
+/// The emitters' records: consecutive emitting triangles of one material
+/// that make a parallelogram (a quad as exporters write it) are sampled as
+/// one (parallelogram.rs).
+fn emitters(scene: &Scene, triangles: &[u32]) -> Vec<Emitter> {
+    let mut out: Vec<Emitter> = triangles.iter().map(|&t| &scene.triangles[t as usize]).map(|t| Emitter { normal: t.cross().normalize(), area: t.area(), quad: None }).collect();
+    let mut k = 0;
+    while k + 1 < triangles.len() {
+        let (ta, tb) = (triangles[k], triangles[k + 1]);
+        let (a, b) = (&scene.triangles[ta as usize], &scene.triangles[tb as usize]);
+        match Parallelogram::of(ta, a, tb, b).filter(|_| a.material == b.material) {
+            Some(quad) => {
+                out[k].quad = Some(quad);
+                out[k + 1].quad = Some(quad);
+                k += 2;
+            }
+            None => k += 1,
+        }
+    }
+    out
 }
 
 /// What light sampling picked.
@@ -114,6 +146,7 @@ impl Lights {
         let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
         Lights {
             total_power: distribution.total(),
+            emitters: emitters(scene, &triangles),
             triangles,
             distribution,
             world_irradiance,
@@ -210,21 +243,33 @@ impl Lights {
             let probability = local * self.distribution.probability(pick) as f32;
             return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });
         }
-        let triangle = self.triangles[pick];
-        let tri = &scene.triangles[triangle as usize];
-        let normal = tri.cross().normalize();
-        let p_triangle = local * self.local_pdf_area(scene.materials[tri.material as usize].emission) * tri.area();
+        let mut triangle = self.triangles[pick];
+        let emitter = &self.emitters[pick];
+        let mut tri = &scene.triangles[triangle as usize];
+        let mut normal = emitter.normal;
+        let pdf_area = local * self.local_pdf_area(scene.materials[tri.material as usize].emission);
         let view = close_solid_angle(p, tri).and_then(|omega| SphericalTriangle::new(p, &tri.p, omega));
-        let b = match &view {
-            Some(view) => barycentrics_along(p, view.sample(u), tri),
-            None => uniform_triangle(u),
+        let b = match (&view, &emitter.quad) {
+            (Some(view), _) => barycentrics_along(p, view.sample(u), tri),
+            // A quad is drawn whole where neither half is sampled by solid
+            // angle: the density is the same, pdf_emitter's for either.
+            (None, Some(quad)) if close_solid_angle(p, &scene.triangles[quad.partner(triangle) as usize]).is_none() => {
+                let (t, b) = quad.sample(u);
+                if t != triangle {
+                    triangle = t;
+                    tri = &scene.triangles[t as usize];
+                    normal = tri.cross().normalize();
+                }
+                b
+            }
+            (None, _) => uniform_triangle(u),
         };
         let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
         let pdf = match view {
-            Some(view) => p_triangle / view.solid_angle,
+            Some(view) => pdf_area * emitter.area / view.solid_angle,
             None => {
                 let to_p = p - point;
-                solid_angle_density(p_triangle / tri.area(), to_p.length_squared(), normal.dot(to_p.normalize_or_zero()))
+                solid_angle_density(pdf_area, to_p.length_squared(), normal.dot(to_p.normalize_or_zero()))
             }
         };
         Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf }))

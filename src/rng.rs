@@ -68,6 +68,16 @@ impl SobolSets {
     /// where it can be, so a point takes three reversals.
     #[inline]
     fn next_point(&mut self) -> (u32, u32) {
+        let (x0, x1, _) = self.next_point_3d(false);
+        (x0, x1)
+    }
+
+    /// The same with Sobol's third dimension, scrambled on its own: the
+    /// points whose first coordinate falls in an interval are themselves
+    /// spread evenly over the other two (a light picked by one coordinate
+    /// gets stratified points from the other two).
+    #[inline]
+    fn next_point_3d(&mut self, third: bool) -> (u32, u32, u32) {
         self.set += 1;
         let h = mix64(self.key ^ self.set.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let (s_index, s0, s1) = (h as u32, (h >> 32) as u32, (h.wrapping_mul(0xD1B5_4A32_D192_ED03) >> 32) as u32);
@@ -76,7 +86,8 @@ impl SobolSets {
         // Dimension 0 is reverse(i'); scrambling it hashes i' itself.
         let x0 = laine_karras(shuffled_reversed.reverse_bits(), s0).reverse_bits();
         let x1 = laine_karras(sobol_1_reversed(shuffled_reversed), s1).reverse_bits();
-        (x0, x1)
+        let x2 = if third { laine_karras(sobol_2_reversed(shuffled_reversed), mix64(h) as u32).reverse_bits() } else { 0 };
+        (x0, x1, x2)
     }
 }
 
@@ -95,31 +106,56 @@ fn laine_karras(mut v: u32, seed: u32) -> u32 {
 /// over GF(2) of r's bits, applied a byte at a time from a table.
 #[inline]
 fn sobol_1_reversed(r: u32) -> u32 {
-    let t = &*SOBOL_1_TABLE;
+    apply_table(&SOBOL_TABLES[0], r)
+}
+
+/// The same for Sobol's third dimension.
+#[inline]
+fn sobol_2_reversed(r: u32) -> u32 {
+    apply_table(&SOBOL_TABLES[1], r)
+}
+
+#[inline]
+fn apply_table(t: &[[u32; 256]; 4], r: u32) -> u32 {
     t[0][(r & 0xff) as usize] ^ t[1][((r >> 8) & 0xff) as usize] ^ t[2][((r >> 16) & 0xff) as usize] ^ t[3][(r >> 24) as usize]
 }
 
-static SOBOL_1_TABLE: std::sync::LazyLock<Box<[[u32; 256]; 4]>> = std::sync::LazyLock::new(|| {
-    // Column j: the image of bit j of r, i.e. of index bit 31 − j.
-    let column = |j: u32| sobol_dimension_1(1u32 << (31 - j)).reverse_bits();
-    let mut t = Box::new([[0u32; 256]; 4]);
-    for (byte, table) in t.iter_mut().enumerate() {
-        for (v, entry) in table.iter_mut().enumerate() {
-            *entry = (0..8).filter(|b| v >> b & 1 != 0).fold(0, |acc, b| acc ^ column(8 * byte as u32 + b));
+/// Dimensions 1 and 2, 4 KiB each.
+static SOBOL_TABLES: std::sync::LazyLock<Box<[[[u32; 256]; 4]; 2]>> = std::sync::LazyLock::new(|| {
+    let mut t = Box::new([[[0u32; 256]; 4]; 2]);
+    for (dimension, tables) in t.iter_mut().enumerate() {
+        // Column j: the image of bit j of r, i.e. of index bit 31 − j.
+        let column = |j: u32| sobol_dimension(dimension + 1, 1u32 << (31 - j)).reverse_bits();
+        for (byte, table) in tables.iter_mut().enumerate() {
+            for (v, entry) in table.iter_mut().enumerate() {
+                *entry = (0..8).filter(|b| v >> b & 1 != 0).fold(0, |acc, b| acc ^ column(8 * byte as u32 + b));
+            }
         }
     }
     t
 });
 
-/// Sobol's second dimension: Pascal's matrix mod 2 times the index bits.
-fn sobol_dimension_1(mut i: u32) -> u32 {
-    let (mut v, mut x) = (1u32 << 31, 0u32);
+/// Sobol's dimension 1 (Pascal's matrix mod 2) or 2 (primitive polynomial
+/// x² + x + 1, m = 1, 3; Joe and Kuo's third) of index i.
+fn sobol_dimension(dimension: usize, mut i: u32) -> u32 {
+    let mut x = 0u32;
+    let mut v = 1u32 << 31;
+    // Direction numbers v_k as fractions: v_k = v_{k−1} ⊕ (v_{k−1} >> 1) for
+    // x + 1; v_k = v_{k−1} ⊕ v_{k−2} ⊕ (v_{k−2} >> 2) for x² + x + 1.
+    let mut previous = 0u32;
+    let mut k = 1;
     while i != 0 {
         if i & 1 != 0 {
             x ^= v;
         }
         i >>= 1;
-        v ^= v >> 1;
+        let next = match dimension {
+            1 => v ^ (v >> 1),
+            _ if k == 1 => 3u32 << 30,
+            _ => v ^ previous ^ (previous >> 2),
+        };
+        (previous, v) = (v, next);
+        k += 1;
     }
     x
 }
@@ -184,6 +220,17 @@ impl Rng {
         (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 
+    /// A 1-D number and a 2-D point from one Sobol set: points whose first
+    /// number falls in any interval are still spread over the square.
+    #[inline]
+    pub fn next_1d_2d(&mut self) -> (f32, Vec2) {
+        if let Some(sets) = self.sobol.as_mut().filter(|s| s.set < SOBOL_SETS) {
+            let (x0, x1, x2) = sets.next_point_3d(true);
+            return (unit(x0), Vec2::new(unit(x1), unit(x2)));
+        }
+        (self.next_f32(), self.next_2d())
+    }
+
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
         if let Some((x, y)) = self.next_sobol() {
@@ -224,7 +271,8 @@ mod tests {
         let mut rng = Rng::new(3, 1);
         for _ in 0..10_000 {
             let r = rng.next_u32();
-            assert_eq!(sobol_1_reversed(r), sobol_dimension_1(r.reverse_bits()).reverse_bits());
+            assert_eq!(sobol_1_reversed(r), sobol_dimension(1, r.reverse_bits()).reverse_bits());
+            assert_eq!(sobol_2_reversed(r), sobol_dimension(2, r.reverse_bits()).reverse_bits());
         }
     }
 
@@ -265,6 +313,40 @@ mod tests {
         assert_eq!(draw(1, 2), draw(1, 2));
         assert_ne!(draw(1, 2), draw(1, 3));
         assert_ne!(draw(1, 2), draw(2, 2));
+    }
+
+    /// A 1-D + 2-D draw keeps the square stratified within any dyadic
+    /// interval of the 1-D number (Sobol's first three dimensions are a
+    /// (1, m, 3)-net: every box of volume 2^(1−m) holds 2 of 2^m points):
+    /// the samples that pick one light out of two still cover its square
+    /// evenly. The padded 2-D sets alone fail this.
+    #[test]
+    fn a_1d_2d_draw_stays_stratified_within_the_1d_choice() {
+        let n = 64u64;
+        for pixel in [3u64, 999] {
+            let points: Vec<(f32, Vec2)> = (0..n)
+                .map(|s| {
+                    let mut rng = Rng::for_pixel_sample(Sampler::Sobol, 4, pixel, s);
+                    rng.next_2d();
+                    rng.next_1d_2d()
+                })
+                .collect();
+            for (parts, per_box) in [(2u32, 16u32), (4, 8)] {
+                for part in 0..parts {
+                    let inside: Vec<Vec2> = points.iter().filter(|(x, _)| (x * parts as f32) as u32 == part).map(|&(_, u)| u).collect();
+                    assert_eq!(inside.len() as u64, n / parts as u64);
+                    let k = per_box.trailing_zeros();
+                    for a in 0..=k {
+                        let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+                        let mut count = vec![0; per_box as usize];
+                        for u in &inside {
+                            count[((u.x * cols as f32) as u32 * rows + (u.y * rows as f32) as u32) as usize] += 1;
+                        }
+                        assert!(count.iter().all(|&c| c == 2), "pixel {pixel}, part {part} of {parts}, {cols}×{rows}: {count:?}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
