@@ -14,6 +14,7 @@
 //! wide_bvh.rs' boxes start at t = 0 and are widened against rounding.
 
 use crate::scene::Triangle;
+use crate::triangle_pack::{PackRay, TrianglePack};
 use crate::wide_bvh::WideBvh;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
@@ -51,8 +52,11 @@ pub struct Hit {
 
 pub struct Accel {
     bvh: WideBvh,
-    /// In BVH order: `tris[i]` is scene triangle `ids[i]`.
-    tris: Vec<RtTriangle>,
+    /// Leaf n's triangles, and the scene triangle of each lane (u32::MAX
+    /// for an empty one).
+    packs: Vec<TrianglePack>,
+    pack_ids: Vec<[u32; 4]>,
+    /// Scene triangles in BVH order.
     ids: Vec<u32>,
 }
 
@@ -101,14 +105,22 @@ impl Accel {
     pub fn build_subset(triangles: &[Triangle], subset: &[u32]) -> (Self, Duration) {
         let start = std::time::Instant::now();
         if subset.is_empty() {
-            return (Accel { bvh: WideBvh::empty(), tris: Vec::new(), ids: Vec::new() }, start.elapsed());
+            return (Accel { bvh: WideBvh::empty(), packs: Vec::new(), pack_ids: Vec::new(), ids: Vec::new() }, start.elapsed());
         }
         let cwbvh = build_cwbvh(triangles, subset);
         let corners: Vec<[Vec3; 3]> = subset.iter().map(|&i| triangles[i as usize].p).collect();
         let bvh = WideBvh::from_cwbvh(&cwbvh, &corners);
         let ids: Vec<u32> = cwbvh.primitive_indices.iter().map(|&i| subset[i as usize]).collect();
-        let tris = ids.iter().map(|&i| RtTriangle::from(&triangles[i as usize])).collect();
-        (Accel { bvh, tris, ids }, start.elapsed())
+        let (mut packs, mut pack_ids) = (Vec::with_capacity(bvh.leaves.len()), Vec::with_capacity(bvh.leaves.len()));
+        for &(first, count) in &bvh.leaves {
+            let leaf = &ids[first as usize..(first + count) as usize];
+            let corners: Vec<[Vec3; 3]> = leaf.iter().map(|&i| triangles[i as usize].p).collect();
+            packs.push(TrianglePack::new(&corners));
+            let mut lanes = [u32::MAX; 4];
+            lanes[..leaf.len()].copy_from_slice(leaf);
+            pack_ids.push(lanes);
+        }
+        (Accel { bvh, packs, pack_ids, ids }, start.elapsed())
     }
 
     /// Closest hit along a unit-direction ray within (0, tmax).
@@ -121,16 +133,21 @@ impl Accel {
     /// alpha let some rays through, decided as the traversal meets them.
     #[inline]
     pub fn intersect_where(&self, origin: Vec3, dir: Vec3, tmax: f32, mut stops: impl FnMut(u32, f32, f32) -> bool) -> Option<Hit> {
-        let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
+        let ray = PackRay::new(origin, dir);
         let mut best: Option<Hit> = None;
-        self.bvh.closest(origin, dir, tmax, |first, count, mut limit| {
-            for id in first as usize..(first + count) as usize {
-                if let Some((t, b1, b2)) = intersect(&self.tris[id], o, d, 0.0, limit) {
-                    if stops(self.ids[id], b1, b2) {
-                        best = Some(Hit { t, triangle: self.ids[id], b1, b2 });
-                        limit = t;
-                    }
+        self.bvh.closest(origin, dir, tmax, |leaf, limit| {
+            let hits = self.packs[leaf as usize].intersect(&ray, limit);
+            // Nearest first: a surface the ray passes through (alpha) lets
+            // the next one be tried.
+            let mut mask = hits.mask;
+            while mask != 0 {
+                let lane = hits.nearest(mask);
+                let triangle = self.pack_ids[leaf as usize][lane];
+                if stops(triangle, hits.b1[lane], hits.b2[lane]) {
+                    best = Some(Hit { t: hits.t[lane], triangle, b1: hits.b1[lane], b2: hits.b2[lane] });
+                    return hits.t[lane];
                 }
+                mask &= !(1 << lane);
             }
             limit
         });
@@ -154,11 +171,19 @@ impl Accel {
     /// `occluded_except`, counting only hits that `stops` accepts.
     #[inline]
     pub fn occluded_except_where(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32, mut stops: impl FnMut(u32, f32, f32) -> bool) -> bool {
-        let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
-        self.bvh.any(origin, dir, tmax, |first, count| {
-            (first as usize..(first + count) as usize).any(|id| {
-                self.ids[id] != skip && matches!(intersect(&self.tris[id], o, d, 0.0, tmax), Some((_, b1, b2)) if stops(self.ids[id], b1, b2))
-            })
+        let ray = PackRay::new(origin, dir);
+        self.bvh.any(origin, dir, tmax, |leaf| {
+            let hits = self.packs[leaf as usize].intersect(&ray, tmax);
+            let ids = &self.pack_ids[leaf as usize];
+            let mut mask = hits.mask;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if ids[lane] != skip && stops(ids[lane], hits.b1[lane], hits.b2[lane]) {
+                    return true;
+                }
+            }
+            false
         })
     }
 

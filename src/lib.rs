@@ -24,6 +24,7 @@ pub mod shading;
 pub mod spherical_triangle;
 pub mod texture;
 pub mod traversal_bench;
+pub mod triangle_pack;
 pub mod watch;
 pub mod wide_bvh;
 

@@ -19,7 +19,7 @@ use glam::{Vec3, Vec4};
 use std::mem::MaybeUninit;
 use obvhs::cwbvh::CwBvh;
 
-/// A child that is a leaf: the high bit, then first triangle << 3 | count.
+/// A child that is a leaf: the high bit, then the leaf's number.
 const LEAF: u32 = 1 << 31;
 /// Stack entries a query keeps on the machine stack; a deeper tree (up to
 /// 7 children per level wait, and a node pushes 8) gets a heap stack of its
@@ -38,6 +38,9 @@ struct Node {
 
 pub struct WideBvh {
     nodes: Vec<Node>,
+    /// Leaf n's triangles: places first..first + count of obvhs'
+    /// `primitive_indices` (at most 3).
+    pub leaves: Vec<(u32, u32)>,
     /// The most entries a query's stack can hold.
     stack_needed: usize,
 }
@@ -98,27 +101,28 @@ impl RayData {
 impl WideBvh {
     /// No triangles: every query misses.
     pub fn empty() -> Self {
-        WideBvh { nodes: Vec::new(), stack_needed: 0 }
+        WideBvh { nodes: Vec::new(), leaves: Vec::new(), stack_needed: 0 }
     }
 
     /// The tree of `bvh`, its leaves indexing `bvh.primitive_indices`, with
     /// every box recomputed from `triangles` (in obvhs' input order).
     pub fn from_cwbvh(bvh: &CwBvh, triangles: &[[Vec3; 3]]) -> Self {
-        let mut nodes = Vec::with_capacity(bvh.nodes.len());
+        let mut tree = WideBvh { nodes: Vec::with_capacity(bvh.nodes.len()), leaves: Vec::new(), stack_needed: 0 };
         let mut depth = 0;
         if !bvh.nodes.is_empty() {
-            Self::convert(bvh, 0, 1, triangles, &mut nodes, &mut depth);
+            tree.convert(bvh, 0, 1, triangles, &mut depth);
         }
-        WideBvh { nodes, stack_needed: 7 * depth + 8 }
+        tree.stack_needed = 7 * depth + 8;
+        tree
     }
 
     /// Appends node `index` and its subtree (depth first, so a node's
     /// children follow it); returns its place and its bounds.
-    fn convert(bvh: &CwBvh, index: usize, level: usize, triangles: &[[Vec3; 3]], nodes: &mut Vec<Node>, depth: &mut usize) -> (u32, Vec3, Vec3) {
+    fn convert(&mut self, bvh: &CwBvh, index: usize, level: usize, triangles: &[[Vec3; 3]], depth: &mut usize) -> (u32, Vec3, Vec3) {
         let cw = &bvh.nodes[index];
         *depth = (*depth).max(level);
-        let at = nodes.len();
-        nodes.push(Node { planes: [[[Vec4::INFINITY; 2], [Vec4::NEG_INFINITY; 2]]; 3], child: [0; 8] });
+        let at = self.nodes.len();
+        self.nodes.push(Node { planes: [[[Vec4::INFINITY; 2], [Vec4::NEG_INFINITY; 2]]; 3], child: [0; 8] });
         let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for slot in 0..8 {
             if cw.is_child_empty(slot) {
@@ -132,11 +136,12 @@ impl WideBvh {
                         (clo, chi) = (clo.min(v), chi.max(v));
                     }
                 }
-                (LEAF | first << 3 | count, clo, chi)
+                self.leaves.push((first, count));
+                (LEAF | (self.leaves.len() - 1) as u32, clo, chi)
             } else {
-                Self::convert(bvh, cw.child_node_index(slot) as usize, level + 1, triangles, nodes, depth)
+                self.convert(bvh, cw.child_node_index(slot) as usize, level + 1, triangles, depth)
             };
-            let node = &mut nodes[at];
+            let node = &mut self.nodes[at];
             node.child[slot] = child;
             // One ulp outwards, so that a ray along a face (its origin on
             // the plane, its direction ±0 across it) is inside that slab
@@ -150,11 +155,10 @@ impl WideBvh {
         (at as u32, lo, hi)
     }
 
-    /// The closest hit: `hit(first, count, t_max)` tests a leaf's
-    /// triangles (places in BVH order) and returns the closest distance it
-    /// accepted below `t_max`, or `t_max`.
+    /// The closest hit: `hit(leaf, t_max)` tests a leaf's triangles and
+    /// returns the closest distance it accepted below `t_max`, or `t_max`.
     #[inline(always)]
-    pub fn closest(&self, o: Vec3, d: Vec3, t_max: f32, hit: impl FnMut(u32, u32, f32) -> f32) {
+    pub fn closest(&self, o: Vec3, d: Vec3, t_max: f32, hit: impl FnMut(u32, f32) -> f32) {
         if self.nodes.is_empty() {
             return;
         }
@@ -167,7 +171,7 @@ impl WideBvh {
     }
 
     #[inline(always)]
-    fn closest_with(&self, stack: &mut [MaybeUninit<(u32, f32)>], o: Vec3, d: Vec3, mut t_max: f32, mut hit: impl FnMut(u32, u32, f32) -> f32) {
+    fn closest_with(&self, stack: &mut [MaybeUninit<(u32, f32)>], o: Vec3, d: Vec3, mut t_max: f32, mut hit: impl FnMut(u32, f32) -> f32) {
         let ray = RayData::new(o, d);
         let mut top = 0;
         let mut node = 0u32;
@@ -201,7 +205,7 @@ impl WideBvh {
             }
             for &(child, t) in order[..count].iter().rev() {
                 if child & LEAF != 0 && t <= t_max * EXIT_WIDENING {
-                    t_max = hit((child & !LEAF) >> 3, child & 7, t_max);
+                    t_max = hit(child & !LEAF, t_max);
                 }
             }
             // The next node: the nearest stacked one the ray still enters.
@@ -220,10 +224,10 @@ impl WideBvh {
         }
     }
 
-    /// Whether `hit(first, count)` accepts a triangle of some leaf the ray
-    /// enters before `t_max`; stops at the first.
+    /// Whether `hit(leaf)` accepts a triangle of some leaf the ray enters
+    /// before `t_max`; stops at the first.
     #[inline(always)]
-    pub fn any(&self, o: Vec3, d: Vec3, t_max: f32, hit: impl FnMut(u32, u32) -> bool) -> bool {
+    pub fn any(&self, o: Vec3, d: Vec3, t_max: f32, hit: impl FnMut(u32) -> bool) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -235,7 +239,7 @@ impl WideBvh {
     }
 
     #[inline(always)]
-    fn any_with(&self, stack: &mut [MaybeUninit<u32>], o: Vec3, d: Vec3, t_max: f32, mut hit: impl FnMut(u32, u32) -> bool) -> bool {
+    fn any_with(&self, stack: &mut [MaybeUninit<u32>], o: Vec3, d: Vec3, t_max: f32, mut hit: impl FnMut(u32) -> bool) -> bool {
         let ray = RayData::new(o, d);
         let mut top = 0;
         let mut node = 0u32;
@@ -248,7 +252,7 @@ impl WideBvh {
                 bits &= bits - 1;
                 let child = children[slot];
                 if child & LEAF != 0 {
-                    if hit((child & !LEAF) >> 3, child & 7) {
+                    if hit(child & !LEAF) {
                         return true;
                     }
                 } else {
@@ -295,7 +299,8 @@ mod tests {
         let tris: Vec<[Vec3; 3]> = cwbvh.primitive_indices.iter().map(|&i| corners[i as usize]).collect();
         let closest = |bvh: &WideBvh, o: Vec3, d: Vec3| {
             let mut best = f32::INFINITY;
-            bvh.closest(o, d, f32::INFINITY, |first, count, mut limit| {
+            bvh.closest(o, d, f32::INFINITY, |leaf, mut limit| {
+                let (first, count) = bvh.leaves[leaf as usize];
                 for t in &tris[first as usize..(first + count) as usize] {
                     let one = [Triangle { p: *t, n: [Vec3::Z; 3], material: 0 }];
                     if let Some(h) = Accel::intersect_brute_force(&one, o, d, limit) {
@@ -313,7 +318,7 @@ mod tests {
             let expected = Accel::intersect_brute_force(&triangles, o, d, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
             assert_eq!(closest(&small, o, d), expected);
             assert_eq!(closest(&heap, o, d), expected);
-            let hits = |bvh: &WideBvh| bvh.any(o, d, f32::INFINITY, |_, _| true);
+            let hits = |bvh: &WideBvh| bvh.any(o, d, f32::INFINITY, |_| true);
             assert_eq!(hits(&small), hits(&heap));
         }
     }
