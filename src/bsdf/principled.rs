@@ -100,9 +100,12 @@ impl PrincipledBsdf {
     }
 
     /// Fresnel of the glossy lobes, summed with their weights and scales.
+    /// A lobe of weight 0 (a pure metal's dielectric, a dielectric's metal)
+    /// is not evaluated: the exact Fresnel was a tenth of a metal's shading.
     fn glossy_fresnel(&self, cos_h: f32) -> Vec3 {
-        let metal = self.metallic * self.s_metal * fresnel_schlick(self.base, cos_h);
-        let dielectric = (1.0 - self.metallic) * self.specular * self.s_dielectric * fresnel_dielectric(cos_h, DIELECTRIC_ETA);
+        let metal = if self.metallic > 0.0 { self.metallic * self.s_metal * fresnel_schlick(self.base, cos_h) } else { Vec3::ZERO };
+        let dielectric_weight = (1.0 - self.metallic) * self.specular;
+        let dielectric = if dielectric_weight > 0.0 { dielectric_weight * self.s_dielectric * fresnel_dielectric(cos_h, DIELECTRIC_ETA) } else { 0.0 };
         metal + Vec3::splat(dielectric)
     }
 
