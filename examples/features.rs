@@ -11,6 +11,9 @@
 //!    no node uses, an animation, a skin and an image), each in a fresh
 //!    process (this program started again with `--child FILE`).
 
+#[path = "shared/glb.rs"]
+mod glb;
+
 use glint::features::FeatureMode;
 use glint::integrator::Context;
 use glint::job::{self, JobOptions};
@@ -157,24 +160,5 @@ fn write_glb(path: &PathBuf, doc: &Value, unused: usize) -> anyhow::Result<()> {
         doc["materials"].as_array_mut().expect("materials").push(json!({"name": "unused", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}));
     }
     doc["buffers"] = json!([{"byteLength": bin.len()}]);
-    let mut json_bytes = serde_json::to_vec(&doc)?;
-    while json_bytes.len() % 4 != 0 {
-        json_bytes.push(b' ');
-    }
-    while bin.len() % 4 != 0 {
-        bin.push(0);
-    }
-    let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((json_bytes.len() as u32).to_le_bytes());
-    out.extend(0x4E4F_534Au32.to_le_bytes());
-    out.extend(&json_bytes);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(0x004E_4942u32.to_le_bytes());
-    out.extend(&bin);
-    std::fs::write(path, out)?;
-    Ok(())
+    glb::write_glb(path, &doc, bin)
 }
