@@ -344,6 +344,47 @@ mod tests {
         check_against_brute_force(&scene, &rays);
     }
 
+    /// Degenerate input for the builder and the wide layout: 500 copies of
+    /// one triangle, a fan of needles about one vertex, a flat grid (every
+    /// box of zero height) and a mix of 1e-5 and 1e5 sizes, traversed by
+    /// rays from all sides and along the grid's plane.
+    #[test]
+    fn matches_brute_force_on_degenerate_input() {
+        let mut scene = Vec::new();
+        let base = tri(Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.6, 0.2, 0.3), Vec3::new(0.1, 0.7, 0.35));
+        scene.extend(std::iter::repeat_n(base.clone(), 500));
+        for k in 0..300 {
+            let a = k as f32 * 0.021;
+            scene.push(tri(Vec3::new(-1.0, -1.0, 0.0), Vec3::new(-1.0 + a.cos(), -1.0 + a.sin(), 1e-3), Vec3::new(-1.0 + (a + 1e-4).cos(), -1.0 + (a + 1e-4).sin(), 1e-3)));
+        }
+        for i in 0..20 {
+            for j in 0..20 {
+                let (x, z) = (i as f32 * 0.1 - 1.0, j as f32 * 0.1 - 1.0);
+                scene.push(tri(Vec3::new(x, -0.5, z), Vec3::new(x + 0.1, -0.5, z), Vec3::new(x, -0.5, z + 0.1)));
+            }
+        }
+        scene.push(tri(Vec3::splat(1e5), Vec3::new(-1e5, 1e5, 1e5), Vec3::new(1e5, -1e5, 1e5)));
+        scene.push(tri(Vec3::new(0.5, 0.5, 0.5), Vec3::new(0.5 + 1e-5, 0.5, 0.5), Vec3::new(0.5, 0.5 + 1e-5, 0.5)));
+        let scene: Vec<Triangle> = scene.into_iter().filter(|t| t.area() > 0.0).collect();
+        let mut rng = Rng::new(8, 9);
+        let mut rays = Vec::new();
+        for _ in 0..2000 {
+            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
+            let d = crate::sampling::cosine_hemisphere(rng.next_2d());
+            rays.push((o, if rng.next_f32() < 0.5 { -d } else { d }));
+        }
+        // Along the grid's plane and just above it.
+        for k in 0..200 {
+            let o = Vec3::new(-1.5, -0.5 + (k % 2) as f32 * 1e-4, k as f32 * 0.01 - 1.0);
+            rays.push((o, Vec3::new(1.0, 0.0, 0.0)));
+            rays.push((o, Vec3::new(1.0, -1e-3, 0.2).normalize()));
+        }
+        // Straight at the copies and the tiny triangle.
+        rays.push((Vec3::new(0.2, 0.3, -1.0), Vec3::Z));
+        rays.push((Vec3::new(0.500001, 0.500001, 0.0), Vec3::Z));
+        check_against_brute_force(&scene, &rays);
+    }
+
     #[test]
     fn empty_and_single_triangle_scenes() {
         let (empty, _) = Accel::build(&[]);
