@@ -94,7 +94,9 @@ fn unwritable_output_is_a_clean_error() {
 
 #[test]
 fn inspect_reports_a_sample_model() {
-    let f = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/Box/Box.gltf");
+    // ../shared beside the repository, or GLINT_SHARED_DIR (as tests/corpus.rs).
+    let shared = std::env::var_os("GLINT_SHARED_DIR").map(std::path::PathBuf::from).unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"));
+    let f = shared.join("gltf-samples/Box/Box.gltf");
     let o = Command::new(env!("CARGO_BIN_EXE_glint")).args(["inspect", f.to_str().unwrap()]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
