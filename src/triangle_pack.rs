@@ -17,9 +17,10 @@ pub struct TrianglePack {
 /// barycentrics of vertices 1 and 2.
 pub struct PackHits {
     pub mask: u32,
-    pub t: Vec4,
-    pub b1: Vec4,
-    pub b2: Vec4,
+    // Arrays: indexing a Vec4 by a variable lane is a branch.
+    pub t: [f32; 4],
+    pub b1: [f32; 4],
+    pub b2: [f32; 4],
 }
 
 impl PackHits {
@@ -98,7 +99,7 @@ impl TrianglePack {
             & (b1 + b2).cmple(Vec4::ONE)
             & t.cmpgt(Vec4::ZERO)
             & t.cmplt(Vec4::splat(t_max));
-        PackHits { mask: ok.bitmask(), t, b1, b2 }
+        PackHits { mask: ok.bitmask(), t: t.to_array(), b1: b1.to_array(), b2: b2.to_array() }
     }
 }
 

@@ -75,9 +75,10 @@ impl RayData {
     /// Which of the node's children the ray enters before `t_max`, as a
     /// bit mask, and their entry distances.
     #[inline(always)]
-    fn enter(&self, node: &Node, t_max: f32) -> (u32, [Vec4; 2]) {
+    fn enter(&self, node: &Node, t_max: f32) -> (u32, [f32; 8]) {
         let mut mask = 0;
-        let mut entry = [Vec4::ZERO; 2];
+        // As an array: indexing a Vec4 by a variable lane is a branch.
+        let mut entry = [0.0f32; 8];
         let t_max = Vec4::splat(t_max);
         for half in 0..2 {
             let mut near = Vec4::ZERO;
@@ -92,7 +93,7 @@ impl RayData {
                 far = f.min(far);
             }
             mask |= near.cmple(far * EXIT_WIDENING).bitmask() << (4 * half);
-            entry[half] = near;
+            entry[4 * half..4 * half + 4].copy_from_slice(&near.to_array());
         }
         (mask, entry)
     }
@@ -185,7 +186,7 @@ impl WideBvh {
             while bits != 0 {
                 let slot = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                let t = entry[slot / 4][slot % 4];
+                let t = entry[slot];
                 let mut i = count;
                 while i > 0 && order[i - 1].1 < t {
                     order[i] = order[i - 1];
