@@ -37,8 +37,9 @@ pub struct Lights {
     /// What sampling needs of each, alongside `triangles`.
     emitters: Vec<Emitter>,
     distribution: Distribution1D,
-    /// Σ of the lights' powers (luminance-weighted watts).
-    total_power: f64,
+    /// π / Σ of the lights' powers (luminance-weighted watts): an
+    /// emitter's area density per unit luminance of its radiance.
+    area_pdf_per_luminance: f32,
     /// π·lum(L̄) of the World, its irradiance on an open surface; 0 when
     /// it is black.
     world_irradiance: f32,
@@ -145,7 +146,8 @@ impl Lights {
         let distribution = Distribution1D::new(powers);
         let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
         Lights {
-            total_power: distribution.total(),
+            // π/P_total once: a division in f64 had been a tenth of a light sample.
+            area_pdf_per_luminance: if distribution.total() > 0.0 { (std::f64::consts::PI / distribution.total()) as f32 } else { 0.0 },
             emitters: emitters(scene, &triangles),
             triangles,
             distribution,
@@ -201,7 +203,7 @@ impl Lights {
 
     /// The same, once a local light is to be picked.
     fn local_pdf_area(&self, le: Vec3) -> f32 {
-        if self.total_power > 0.0 { (std::f64::consts::PI * luminance(le) as f64 / self.total_power) as f32 } else { 0.0 }
+        luminance(le) * self.area_pdf_per_luminance
     }
 
     /// The probability `sample` picks scene punctual light `index` for a
