@@ -18,7 +18,9 @@ Blender's glTF importer, and a rough gold sphere under an area light), it:
    converted by mitsuba_scene.py (its docstring lists what differs), timed
    after a first render at the same sample count has compiled its kernels;
 3. measures the error of each image against the reference: relative MSE
-   (mean of (x − ref)² / (ref² + 0.01), ε = 0.01) and RMSE;
+   (mean of (x − ref)² / (ref² + 0.01), ε = 0.01) and RMSE; with --seeds N,
+   N images per renderer and sample count (seeds 0 … N−1), their mean
+   error and time, and the error's standard error in the CSV;
 4. writes OUT/SCENE.csv and OUT/SCENE.png (log–log error against seconds,
    one curve per renderer) and prints the equal-error speed-ups: the time
    Cycles (or Mitsuba) needs for N samples divided by the time Glint needs
@@ -113,10 +115,10 @@ def export_for_glint(scene, folder):
     (folder / "request.json").write_bytes(export.json_bytes(request))
 
 
-def glint_render(executable, folder, spp, path, stats=None):
+def glint_render(executable, folder, spp, path, stats=None, seed=0):
     out = subprocess.run(
         [executable, "render", str(folder / "scene.glb"), "--request", str(folder / "request.json"), "--spp", str(spp), "-o", str(path),
-         "--max-depth", str(BOUNCES + 1), "--stats"],
+         "--max-depth", str(BOUNCES + 1), "--seed", str(seed), "--stats"],
         check=True,
         capture_output=True,
         text=True,
@@ -207,6 +209,7 @@ def main():
     parser.add_argument("--reference-spp", type=int, default=4096)
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--mitsuba", action="store_true", help="also Mitsuba 3 (GLINT_BENCH_MITSUBA_VARIANT, default llvm_ad_rgb)")
+    parser.add_argument("--seeds", type=int, default=1, help="images per renderer and sample count; the curves are their means")
     args = parser.parse_args()
     executable = os.environ.get("GLINT_EXECUTABLE", str(REPO / "target" / "release" / "glint"))
     out = Path(args.out)
@@ -228,27 +231,35 @@ def main():
             refs["cycles"], ref_seconds = cycles(scene, args.reference_spp, work / "ref.exr", seed=12345)
             print(f"{name}: Cycles reference {args.reference_spp} spp in {ref_seconds:.1f} s", flush=True)
             export_for_glint(scene, work)
-            refs["glint"], _ = glint_render(executable, work, args.reference_spp, work / "g-ref.exr")
+            # Its own seed, as the peers' references: the images at seed 0 would
+            # otherwise be the first samples of the reference itself.
+            refs["glint"], _ = glint_render(executable, work, args.reference_spp, work / "g-ref.exr", seed=12345)
             renderers = {
-                "cycles": lambda spp: cycles(scene, spp, work / f"c{spp}.exr"),
-                "glint": lambda spp: glint_render(executable, work, spp, work / f"g{spp}.exr", stats),
+                "cycles": lambda spp, seed: cycles(scene, spp, work / f"c{spp}.exr", seed=seed),
+                "glint": lambda spp, seed: glint_render(executable, work, spp, work / f"g{spp}.exr", stats, seed=seed),
             }
             stats = {}
             if args.mitsuba:
                 mscene, variant = mitsuba_setup(scene)
                 refs["mitsuba"], _ = mitsuba_render(mscene, args.reference_spp, seed=12345)
-                renderers["mitsuba"] = lambda spp: mitsuba_render(mscene, spp)
+                renderers["mitsuba"] = lambda spp, seed: mitsuba_render(mscene, spp, seed=seed)
             rows = []
             spp = 1
             while spp <= args.max_spp:
                 for renderer, render in renderers.items():
-                    img, t = render(spp)
-                    relmse, rmse = errors(img, refs[renderer])
-                    rows.append({"renderer": renderer, "spp": spp, "seconds": t, "relmse": relmse, "rmse": rmse,
-                                 "relmse_vs_cycles": errors(img, refs["cycles"])[0]})
+                    # Seeds 0, 1, …: one image each, the means reported (a
+                    # single image's error scatters by tens of percent).
+                    runs = []
+                    for seed in range(args.seeds):
+                        img, t = render(spp, seed)
+                        runs.append((t, *errors(img, refs[renderer]), errors(img, refs["cycles"])[0]))
+                    t, relmse, rmse, vs_cycles = (float(np.mean(column)) for column in zip(*runs))
+                    se = float(np.std([r[1] for r in runs], ddof=1) / math.sqrt(len(runs))) if len(runs) > 1 else float("nan")
+                    rows.append({"renderer": renderer, "spp": spp, "seconds": t, "relmse": relmse, "relmse_se": se, "rmse": rmse,
+                                 "relmse_vs_cycles": vs_cycles})
                 spp *= 2
             with open(out / f"{name}.csv", "w", newline="") as f:
-                w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "relmse", "rmse", "relmse_vs_cycles"])
+                w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "relmse", "relmse_se", "rmse", "relmse_vs_cycles"])
                 w.writeheader()
                 w.writerows(rows)
             plot(name, rows, out / f"{name}.png")
