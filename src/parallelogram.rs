@@ -1,6 +1,6 @@
 //! Emitting quads: two emitting triangles that make a parallelogram (a
 //! Blender area light, a quad of an emissive mesh) are sampled as one
-//! shape, p = apex + u·e1 + u·e2, instead of a triangle picked by one number
+//! shape, p = apex + u₁·e1 + u₂·e2, instead of a triangle picked by one number
 //! and a point on it by two others.
 //!
 //! The density over the quad is the same as before — light picking weighs
@@ -10,7 +10,7 @@
 //! highlight, direct light came out with half the error (lights.rs).
 
 use crate::scene::Triangle;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 
 /// One half of a pair: which of its vertices is the apex (role 0) and which
 /// the shared corners s1 (1) and s2 (2).
@@ -20,13 +20,10 @@ struct Half {
     roles: [u8; 3],
 }
 
-/// The pair, with the first triangle holding `apex` and the second the
-/// opposite corner apex + e1 + e2.
+/// The pair: the first triangle holds the apex, the second the opposite
+/// corner apex + e1 + e2 (e1, e2 the edges to the shared corners).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Parallelogram {
-    apex: Vec3,
-    e1: Vec3,
-    e2: Vec3,
     halves: [Half; 2],
 }
 
@@ -53,7 +50,7 @@ impl Parallelogram {
         (roles_a[i1], roles_a[i2]) = (1, 2);
         let mut roles_b = [0u8; 3];
         (roles_b[j1], roles_b[j2]) = (1, 2);
-        Some(Parallelogram { apex, e1, e2, halves: [Half { triangle: ta, roles: roles_a }, Half { triangle: tb, roles: roles_b }] })
+        Some(Parallelogram { halves: [Half { triangle: ta, roles: roles_a }, Half { triangle: tb, roles: roles_b }] })
     }
 
     /// The other triangle of the pair.
@@ -72,23 +69,21 @@ impl Parallelogram {
         (half.triangle, Vec2::new(weights[half.roles[1] as usize], weights[half.roles[2] as usize]))
     }
 
-    #[cfg(test)]
-    pub fn point(&self, u: Vec2) -> Vec3 {
-        self.apex + u.x * self.e1 + u.y * self.e2
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
         Triangle { p: [a, b, c], n: [Vec3::Z; 3], material: 0 }
     }
 
-    /// Every sample lies where the quad's map puts it, in the triangle it
-    /// names; the two halves get the share of their area; whatever the
-    /// vertex order of each triangle.
+    /// Samples land where one affine map of the unit square onto the quad
+    /// puts them (so they are uniform over it), in the triangle they name;
+    /// the map's corners are the quad's; the two halves get the share of
+    /// their area; whatever the vertex order of each triangle.
     #[test]
     fn samples_are_uniform_over_the_quad_in_either_vertex_order() {
         let (p0, p1, p2, p3) = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 1.0), Vec3::new(2.5, 1.0, 1.0), Vec3::new(0.5, 1.0, 1.0));
@@ -99,17 +94,25 @@ mod tests {
         ] {
             let quad = Parallelogram::of(7, &a, 9, &b).expect("a parallelogram");
             assert_eq!(quad.partner(7), 9);
+            let point = |u: Vec2| {
+                let (t, bary) = quad.sample(u);
+                let tr = if t == 7 { &a } else { &b };
+                assert!(bary.min_element() >= -1e-6 && bary.x + bary.y <= 1.0 + 1e-6);
+                tr.p[0] * (1.0 - bary.x - bary.y) + tr.p[1] * bary.x + tr.p[2] * bary.y
+            };
+            let (origin, x, y) = (point(Vec2::ZERO), point(Vec2::X), point(Vec2::Y));
+            let corners = [origin, x, y, point(Vec2::ONE)];
+            for q in [p0, p1, p2, p3] {
+                assert!(corners.iter().any(|c| (*c - q).length() < 1e-6), "corner {q} not among {corners:?}");
+            }
             let mut first = 0;
             let n = 64;
             for i in 0..n {
                 for j in 0..n {
                     let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                    let (t, bary) = quad.sample(u);
-                    let tr = if t == 7 { &a } else { &b };
-                    first += (t == 7) as usize;
-                    let on = tr.p[0] * (1.0 - bary.x - bary.y) + tr.p[1] * bary.x + tr.p[2] * bary.y;
-                    assert!((on - quad.point(u)).length() < 1e-5, "{on} vs {}", quad.point(u));
-                    assert!(bary.min_element() >= -1e-6 && bary.x + bary.y <= 1.0 + 1e-6);
+                    first += (quad.sample(u).0 == 7) as usize;
+                    let affine = origin + u.x * (x - origin) + u.y * (y - origin);
+                    assert!((point(u) - affine).length() < 1e-5, "{} vs {affine}", point(u));
                 }
             }
             // Equal halves: within the midpoint grid's diagonal.

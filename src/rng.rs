@@ -65,19 +65,13 @@ struct SobolSets {
 impl SobolSets {
     /// The next set's point: Owen-scrambled Sobol dimensions 0 and 1 of an
     /// Owen-shuffled index, as 32-bit fractions. Kept in bit-reversed form
-    /// where it can be, so a point takes three reversals.
+    /// where it can be, so a point takes three reversals. With `third`,
+    /// also Sobol's third dimension, scrambled on its own: the points whose
+    /// first coordinate falls in an interval are then spread evenly over
+    /// the other two (a light picked by one coordinate gets stratified
+    /// points from the other two); else it is 0.
     #[inline]
-    fn next_point(&mut self) -> (u32, u32) {
-        let (x0, x1, _) = self.next_point_3d(false);
-        (x0, x1)
-    }
-
-    /// The same with Sobol's third dimension, scrambled on its own: the
-    /// points whose first coordinate falls in an interval are themselves
-    /// spread evenly over the other two (a light picked by one coordinate
-    /// gets stratified points from the other two).
-    #[inline]
-    fn next_point_3d(&mut self, third: bool) -> (u32, u32, u32) {
+    fn next_point(&mut self, third: bool) -> (u32, u32, u32) {
         self.set += 1;
         let h = mix64(self.key ^ self.set.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let (s_index, s0, s1) = (h as u32, (h >> 32) as u32, (h.wrapping_mul(0xD1B5_4A32_D192_ED03) >> 32) as u32);
@@ -206,15 +200,15 @@ impl Rng {
 
     /// The next Sobol set's point, while this sample has one.
     #[inline]
-    fn next_sobol(&mut self) -> Option<(u32, u32)> {
+    fn next_sobol(&mut self, third: bool) -> Option<(u32, u32, u32)> {
         let sets = self.sobol.as_mut()?;
-        (sets.set < SOBOL_SETS).then(|| sets.next_point())
+        (sets.set < SOBOL_SETS).then(|| sets.next_point(third))
     }
 
     /// Uniform in [0, 1): 24 random bits, so 1.0 is never returned.
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
-        if let Some((x, _)) = self.next_sobol() {
+        if let Some((x, _, _)) = self.next_sobol(false) {
             return unit(x);
         }
         (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
@@ -224,8 +218,7 @@ impl Rng {
     /// number falls in any interval are still spread over the square.
     #[inline]
     pub fn next_1d_2d(&mut self) -> (f32, Vec2) {
-        if let Some(sets) = self.sobol.as_mut().filter(|s| s.set < SOBOL_SETS) {
-            let (x0, x1, x2) = sets.next_point_3d(true);
+        if let Some((x0, x1, x2)) = self.next_sobol(true) {
             return (unit(x0), Vec2::new(unit(x1), unit(x2)));
         }
         (self.next_f32(), self.next_2d())
@@ -233,7 +226,7 @@ impl Rng {
 
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        if let Some((x, y)) = self.next_sobol() {
+        if let Some((x, y, _)) = self.next_sobol(false) {
             return Vec2::new(unit(x), unit(y));
         }
         Vec2::new(self.next_f32(), self.next_f32())

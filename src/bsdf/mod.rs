@@ -324,8 +324,10 @@ pub enum BsdfModel {
     Principled,
 }
 
+/// The trait over a model's inherent methods; `evaluate` names one that
+/// computes f and the pdf together (else the trait's default pairs them).
 macro_rules! impl_bsdf {
-    ($t:ty) => {
+    ($t:ty $(, $evaluate:ident)?) => {
         impl Bsdf for $t {
             fn new(surface: &Surface, wo: Vec3) -> Self {
                 <$t>::new(surface, wo)
@@ -336,6 +338,11 @@ macro_rules! impl_bsdf {
             fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
                 <$t>::pdf(self, wo, wi)
             }
+            $(
+                fn $evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+                    <$t>::$evaluate(self, wo, wi)
+                }
+            )?
             fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
                 <$t>::sample(self, wo, u_lobe, u)
             }
@@ -344,24 +351,7 @@ macro_rules! impl_bsdf {
 }
 impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
-
-impl Bsdf for PrincipledBsdf {
-    fn new(surface: &Surface, wo: Vec3) -> Self {
-        PrincipledBsdf::new(surface, wo)
-    }
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        PrincipledBsdf::eval(self, wo, wi)
-    }
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        PrincipledBsdf::pdf(self, wo, wi)
-    }
-    fn evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        PrincipledBsdf::evaluate(self, wo, wi)
-    }
-    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        PrincipledBsdf::sample(self, wo, u_lobe, u)
-    }
-}
+impl_bsdf!(PrincipledBsdf, evaluate);
 
 pub mod dielectric;
 pub mod energy;
