@@ -214,18 +214,34 @@ impl SurfaceHit {
         if ns == Vec3::ZERO || ns.dot(-dir) <= 0.0 {
             ns = ng;
         }
-        let mut surface = shading::surface_at(scene, material, hit.triangle, b);
-        if !front_face {
-            // Leaving a closed object through its back face (glTF's front
-            // faces point out).
-            surface.ior = 1.0 / surface.ior;
-        }
+        let surface = facing(shading::surface_at(scene, material, hit.triangle, b), front_face);
         SurfaceHit { p, p_error, ng, frame: Frame::from_normal(ns), front_face, material: tri.material, triangle: hit.triangle, b, surface }
     }
 
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
         offset_origin(self.p, self.p_error, self.ng, w)
     }
+}
+
+/// A surface as a ray meets it from one side: leaving a closed object
+/// through its back face (glTF's front faces point out), the relative IOR
+/// is inverted.
+fn facing(mut surface: Surface, front_face: bool) -> Surface {
+    if !front_face {
+        surface.ior = 1.0 / surface.ior;
+    }
+    surface
+}
+
+/// Each material's BSDF prepared for its front and back face
+/// (`Bsdf::prepare`), where its surface is the same at every point; None
+/// where textures or vertex colours make it vary.
+pub fn prepare_materials<B: Bsdf>(scene: &Scene) -> Vec<Option<[B::Prepared; 2]>> {
+    scene
+        .materials
+        .iter()
+        .map(|m| (!shading::varies(scene, m)).then(|| [true, false].map(|front| B::prepare(&facing(m.surface(), front)))))
+        .collect()
 }
 
 /// Whether a direction leaves on the side of the geometric surface its
@@ -456,6 +472,7 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, cos_light: f32,
 /// for at all).
 pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
     ctx: &Context,
+    prepared: &[Option<[B::Prepared; 2]>],
     origin: Vec3,
     dir: Vec3,
     settings: &RenderSettings,
@@ -500,7 +517,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             break;
         }
         let wo = si.frame.to_local(-d);
-        let bsdf = B::new(&si.surface, wo);
+        let bsdf = match &prepared[si.material as usize] {
+            Some(faces) => B::at(&faces[!si.front_face as usize], wo),
+            None => B::new(&si.surface, wo),
+        };
         if AREA || PUNCTUAL || ctx.lights.has_world() {
             l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, rng, rays);
         }

@@ -58,27 +58,49 @@ pub struct Lights {
     pub sized: Vec<usize>,
 }
 
-/// An emitting triangle's unit face normal and area, and the
-/// parallelogram it makes with a neighbour, if it does.
+/// An emitting triangle's unit face normal, area and nearness, and the
+/// parallelogram it makes with a neighbour (emitter `partner`), if it does.
 struct Emitter {
     normal: Vec3,
     area: f32,
-    quad: Option<Parallelogram>,
+    nearness: Nearness,
+    quad: Option<(Parallelogram, usize)>,
+}
+
+/// What says whether a point is close to a triangle: its centroid and
+/// longest squared edge, kept per emitter because every light sample asks
+/// (recomputed from the corners, the test was a sixth of a light sample).
+#[derive(Clone, Copy)]
+struct Nearness {
+    centroid: Vec3,
+    longest2: f32,
+}
+
+impl Nearness {
+    fn of(tri: &Triangle) -> Self {
+        let [a, b, c] = tri.p;
+        Nearness { centroid: (a + b + c) / 3.0, longest2: (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared()) }
+    }
+
+    /// The longest edge is longer than the distance to the centroid.
+    fn close(&self, p: Vec3) -> bool {
+        self.longest2 > p.distance_squared(self.centroid)
+    }
 }
 
 /// The emitters' records: consecutive emitting triangles of one material
 /// that make a parallelogram (a quad as exporters write it) are sampled as
 /// one (parallelogram.rs).
 fn emitters(scene: &Scene, triangles: &[u32]) -> Vec<Emitter> {
-    let mut out: Vec<Emitter> = triangles.iter().map(|&t| &scene.triangles[t as usize]).map(|t| Emitter { normal: t.cross().normalize(), area: t.area(), quad: None }).collect();
+    let mut out: Vec<Emitter> = triangles.iter().map(|&t| &scene.triangles[t as usize]).map(|t| Emitter { normal: t.cross().normalize(), area: t.area(), nearness: Nearness::of(t), quad: None }).collect();
     let mut k = 0;
     while k + 1 < triangles.len() {
         let (ta, tb) = (triangles[k], triangles[k + 1]);
         let (a, b) = (&scene.triangles[ta as usize], &scene.triangles[tb as usize]);
         match Parallelogram::of(ta, a, tb, b).filter(|_| a.material == b.material) {
             Some(quad) => {
-                out[k].quad = Some(quad);
-                out[k + 1].quad = Some(quad);
+                out[k].quad = Some((quad, k + 1));
+                out[k + 1].quad = Some((quad, k));
                 k += 2;
             }
             None => k += 1,
@@ -250,17 +272,17 @@ impl Lights {
         let mut tri = &scene.triangles[triangle as usize];
         let mut normal = emitter.normal;
         let pdf_area = local * self.local_pdf_area(scene.materials[tri.material as usize].emission);
-        let view = close_solid_angle(p, tri).and_then(|omega| SphericalTriangle::new(p, &tri.p, omega));
+        let view = close_solid_angle(p, tri, &emitter.nearness).and_then(|omega| SphericalTriangle::new(p, &tri.p, omega));
         let b = match (&view, &emitter.quad) {
             (Some(view), _) => barycentrics_along(p, view.sample(u), tri),
             // A quad is drawn whole where neither half is sampled by solid
             // angle: the density is the same, pdf_emitter's for either.
-            (None, Some(quad)) if close_solid_angle(p, &scene.triangles[quad.partner(triangle) as usize]).is_none() => {
+            (None, Some((quad, partner))) if close_solid_angle(p, &scene.triangles[quad.partner(triangle) as usize], &self.emitters[*partner].nearness).is_none() => {
                 let (t, b) = quad.sample(u);
                 if t != triangle {
                     triangle = t;
                     tri = &scene.triangles[t as usize];
-                    normal = tri.cross().normalize();
+                    normal = self.emitters[*partner].normal;
                 }
                 b
             }
@@ -283,7 +305,7 @@ impl Lights {
     pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, dist2: f32, cos_light: f32) -> f32 {
         let tri = &scene.triangles[triangle as usize];
         let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission, p);
-        match close_solid_angle(p, tri) {
+        match close_solid_angle(p, tri, &Nearness::of(tri)) {
             Some(omega) => pdf_area * tri.area() / omega,
             None => solid_angle_density(pdf_area, dist2, cos_light),
         }
@@ -296,13 +318,11 @@ impl Lights {
 /// rule, the distance to the plane, also takes points far out beside the
 /// triangle: on the Cornell box it cost 16% more time than this rule for
 /// the same error.)
-fn close_solid_angle(p: Vec3, tri: &Triangle) -> Option<f32> {
-    let [a, b, c] = tri.p;
-    let longest2 = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
-    let centroid = (a + b + c) / 3.0;
-    if !(longest2 > p.distance_squared(centroid)) {
+fn close_solid_angle(p: Vec3, tri: &Triangle, nearness: &Nearness) -> Option<f32> {
+    if !nearness.close(p) {
         return None;
     }
+    let [a, b, c] = tri.p;
     // A point on the emitter itself (a reflective lamp) lies in its plane
     // only up to rounding; seen from there its inside would read as a
     // solid angle near 2π, and a lamp lit itself (Blender's Cornell box

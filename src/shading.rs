@@ -38,7 +38,7 @@ fn vertex_color(scene: &Scene, triangle: u32, b: Barycentric) -> Vec4 {
 
 /// Whether anything at this point differs from the material's factors.
 #[inline]
-fn varies(scene: &Scene, m: &Material) -> bool {
+pub fn varies(scene: &Scene, m: &Material) -> bool {
     m.textures.is_some() || !scene.attributes.color.is_empty()
 }
 

@@ -26,7 +26,7 @@
 //! is compensated by 1/E (E the lobe's single-scattering albedo, both lobes,
 //! tabulated below), darkened for a coloured tint as energy.rs does for metal.
 
-use super::energy::{cosine_average, lerp_grid, ms_scale, view, visible_normal_mean};
+use super::energy::{cosine_average, lerp_grid, ms_fraction, ms_scale, view, visible_normal_mean};
 use super::ggx::d;
 use super::microfacet::{fresnel_dielectric, g1, g2, sample_visible_normal};
 use super::{BsdfSample, SMOOTH_ALPHA_SQ};
@@ -83,7 +83,7 @@ impl Dielectric {
             Vec3::ONE
         } else {
             let t = glass_tables();
-            ms_scale(t.e(mu, roughness, eta), t.e_avg(roughness, eta), tint)
+            ms_scale(t.e(mu, roughness, eta), ms_fraction(t.e_avg(roughness, eta), tint))
         };
         Dielectric { eta, alpha, smooth, tint, scale }
     }

@@ -110,11 +110,17 @@ pub(super) fn cosine_average(f: impl Fn(f32) -> f32) -> f32 {
     (0..n).map(|i| (i as f32 + 0.5) / n as f32).map(|mu| 2.0 * f(mu) * mu / n as f32).sum()
 }
 
+/// F_ms = F_avg E_avg / (1 − F_avg (1 − E_avg)), per channel for a
+/// coloured average Fresnel: what `ms_scale` needs of the lobe besides E,
+/// so a material computes it once.
+pub fn ms_fraction(e_avg: f32, f_avg: Vec3) -> Vec3 {
+    f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg))
+}
+
 /// Scale of the single-scattering lobe that puts back the energy of the
-/// missing bounces, per channel for a coloured average Fresnel.
-pub fn ms_scale(e: f32, e_avg: f32, f_avg: Vec3) -> Vec3 {
+/// missing bounces, S = 1 + F_ms (1 − E)/E.
+pub fn ms_scale(e: f32, f_ms: Vec3) -> Vec3 {
     let e = e.max(1e-4);
-    let f_ms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg));
     Vec3::ONE + f_ms * ((1.0 - e) / e)
 }
 
@@ -129,7 +135,7 @@ impl EnergyTables {
             .map(|k| {
                 let (mi, ri) = (k % N, k / N);
                 let single = single_scatter_albedo(grid_mu(mi), grid(ri), |c| fresnel_dielectric(c, DIELECTRIC_ETA));
-                (single * ms_scale(e[k], e_avg[ri], Vec3::splat(f_avg)).x).min(1.0)
+                (single * ms_scale(e[k], ms_fraction(e_avg[ri], Vec3::splat(f_avg))).x).min(1.0)
             })
             .collect();
         EnergyTables { e, e_avg, e_layer, dielectric_f_avg: f_avg }
@@ -154,6 +160,22 @@ impl EnergyTables {
 
     pub fn e_layer(&self, mu: f32, roughness: f32) -> f32 {
         Self::bilinear(&self.e_layer, mu, roughness)
+    }
+
+    /// `e` and `e_layer` at once: the same numbers, the grid position
+    /// (a square root and two roundings) found once.
+    pub fn e_and_layer(&self, mu: f32, roughness: f32) -> (f32, f32) {
+        let (x, y) = (column(mu), row(roughness));
+        let j = (y as usize).min(N - 2);
+        let i = (x as usize).min(N - 2);
+        let (tx, ty) = (x - i as f32, y - j as f32);
+        let at = |table: &[f32]| {
+            let (r0, r1) = (&table[j * N + i..j * N + i + 2], &table[(j + 1) * N + i..(j + 1) * N + i + 2]);
+            let a = r0[0] * (1.0 - tx) + r0[1] * tx;
+            let b = r1[0] * (1.0 - tx) + r1[1] * tx;
+            a * (1.0 - ty) + b * ty
+        };
+        (at(&self.e), at(&self.e_layer))
     }
 }
 
@@ -188,7 +210,7 @@ mod tests {
                 }
                 let (e_mc, f_mc) = ((sum_e / n as f64) as f32, (sum_f / n as f64) as f32);
                 let e = t.e(mu, roughness);
-                let s = ms_scale(e, t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x;
+                let s = ms_scale(e, ms_fraction(t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg))).x;
                 // 400k samples: the estimate's noise is < 0.1%; the
                 // tables' grid interpolation adds up to ~0.3%.
                 let tol = 0.005;
@@ -204,12 +226,24 @@ mod tests {
     }
 
     #[test]
+    fn the_joint_lookup_is_both_lookups_bit_for_bit() {
+        let t = tables();
+        for ri in 0..=40 {
+            for mi in 0..=40 {
+                let (mu, roughness) = (mi as f32 / 40.0, ri as f32 / 40.0);
+                let (e, layer) = t.e_and_layer(mu, roughness);
+                assert_eq!((e.to_bits(), layer.to_bits()), (t.e(mu, roughness).to_bits(), t.e_layer(mu, roughness).to_bits()), "μ {mu} r {roughness}");
+            }
+        }
+    }
+
+    #[test]
     fn compensation_makes_a_white_lobe_reflect_everything() {
         let t = tables();
         for roughness in [0.2f32, 0.5, 1.0] {
             for mu in [0.1f32, 0.5, 1.0] {
                 let e = t.e(mu, roughness);
-                let s = ms_scale(e, t.e_avg(roughness), Vec3::ONE).x;
+                let s = ms_scale(e, ms_fraction(t.e_avg(roughness), Vec3::ONE)).x;
                 assert!((s * e - 1.0).abs() < 1e-4, "r {roughness} μ {mu}: S·E = {}", s * e);
             }
         }

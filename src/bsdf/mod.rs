@@ -290,8 +290,16 @@ impl LambertBsdf {
 
 /// A material evaluated at one shading point, for one outgoing direction:
 /// what the integrator needs of any BSDF model.
-pub trait Bsdf {
-    fn new(surface: &Surface, wo: Vec3) -> Self;
+pub trait Bsdf: Sized {
+    /// What the model computes of a surface before it knows wo: once per
+    /// material where the surface is the same at every point (render.rs).
+    type Prepared: Sync;
+    fn prepare(surface: &Surface) -> Self::Prepared;
+    /// The BSDF for one outgoing direction.
+    fn at(prepared: &Self::Prepared, wo: Vec3) -> Self;
+    fn new(surface: &Surface, wo: Vec3) -> Self {
+        Self::at(&Self::prepare(surface), wo)
+    }
     /// f(wo, wi) without the cosine; delta lobes contribute nothing here.
     /// wi below the surface (z < 0) is transmission: zero unless the model
     /// has glass.
@@ -325,13 +333,13 @@ pub enum BsdfModel {
 }
 
 /// The trait over a model's inherent methods; `evaluate` names one that
-/// computes f and the pdf together (else the trait's default pairs them).
+/// computes f and the pdf together (else the trait's default pairs them),
+/// `prepared` the type its inherent `prepare`/`at` split `new` into (else
+/// the surface itself is what is prepared).
 macro_rules! impl_bsdf {
-    ($t:ty $(, $evaluate:ident)?) => {
+    ($t:ty $(, $evaluate:ident)? $(; prepared $p:ty)?) => {
         impl Bsdf for $t {
-            fn new(surface: &Surface, wo: Vec3) -> Self {
-                <$t>::new(surface, wo)
-            }
+            impl_bsdf!(@prepare $t $(, $p)?);
             fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
                 <$t>::eval(self, wo, wi)
             }
@@ -348,10 +356,28 @@ macro_rules! impl_bsdf {
             }
         }
     };
+    (@prepare $t:ty) => {
+        type Prepared = Surface;
+        fn prepare(surface: &Surface) -> Surface {
+            *surface
+        }
+        fn at(surface: &Surface, wo: Vec3) -> Self {
+            <$t>::new(surface, wo)
+        }
+    };
+    (@prepare $t:ty, $p:ty) => {
+        type Prepared = $p;
+        fn prepare(surface: &Surface) -> $p {
+            <$p>::new(surface)
+        }
+        fn at(prepared: &$p, wo: Vec3) -> Self {
+            <$t>::at(prepared, wo)
+        }
+    };
 }
 impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
-impl_bsdf!(PrincipledBsdf, evaluate);
+impl_bsdf!(PrincipledBsdf, evaluate; prepared principled::PrincipledLobes);
 
 pub mod dielectric;
 pub mod energy;

@@ -23,7 +23,7 @@
 //! Like Cycles, the layering and the compensation depend on wo only, so the
 //! model is not reciprocal; the lobes themselves are.
 
-use super::energy::{ms_scale, tables, DIELECTRIC_ETA};
+use super::energy::{ms_fraction, ms_scale, tables, DIELECTRIC_ETA};
 use super::microfacet::{self, fresnel_dielectric, schlick_average};
 use super::{fresnel_schlick, lambert, luminance, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
 use crate::material::Surface;
@@ -47,20 +47,70 @@ pub struct PrincipledBsdf {
     pub glossy_probability: f32,
 }
 
-impl PrincipledBsdf {
-    pub fn new(m: &Surface, wo: Vec3) -> Self {
+/// What of a Principled BSDF depends on the surface alone, not on wo:
+/// computed once per material where the surface is the same at every
+/// point (render.rs), which was half of building the BSDF at each hit.
+#[derive(Clone, Copy, Debug)]
+pub struct PrincipledLobes {
+    base: Vec3,
+    metallic: f32,
+    specular: f32,
+    roughness: f32,
+    alpha: f32,
+    smooth: bool,
+    pure_lambert: bool,
+    multiscatter: bool,
+    /// F_ms of the metal (per channel) and of the dielectric layer, for
+    /// the multiple-scattering scales (energy.rs).
+    f_ms_metal: Vec3,
+    f_ms_dielectric: f32,
+    /// luminance(F_avg) of the metal and luminance(base), for the lobe choice.
+    metal_reflectance: f32,
+    base_luminance: f32,
+}
+
+impl PrincipledLobes {
+    pub fn new(m: &Surface) -> Self {
         let roughness = m.roughness.clamp(0.0, 1.0);
         let alpha = roughness * roughness;
-        let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
-        let metallic = m.metallic.clamp(0.0, 1.0);
         let base = m.base_color.clamp(Vec3::ZERO, Vec3::ONE);
         // The tables hold IOR 1.5; another IOR scales the layer by its F0,
         // exactly as KHR_materials_specular does (an approximation between
         // the tables' exact ends, like s itself).
         let ior_ratio = (m.ior - 1.0) / (m.ior + 1.0) / 0.2;
-        let specular = (m.specular * ior_ratio * ior_ratio).clamp(0.0, 4.0);
+        let (f_ms_metal, f_ms_dielectric) = if m.is_pure_lambert() || alpha * alpha <= SMOOTH_ALPHA_SQ {
+            (Vec3::ZERO, 0.0)
+        } else {
+            let t = tables();
+            let e_avg = t.e_avg(roughness);
+            (ms_fraction(e_avg, schlick_average(base)), ms_fraction(e_avg, Vec3::splat(t.dielectric_f_avg)).x)
+        };
+        PrincipledLobes {
+            base,
+            metallic: m.metallic.clamp(0.0, 1.0),
+            specular: (m.specular * ior_ratio * ior_ratio).clamp(0.0, 4.0),
+            roughness,
+            alpha,
+            smooth: alpha * alpha <= SMOOTH_ALPHA_SQ,
+            pure_lambert: m.is_pure_lambert(),
+            multiscatter: m.multiscatter,
+            f_ms_metal,
+            f_ms_dielectric,
+            metal_reflectance: luminance(schlick_average(base)),
+            base_luminance: luminance(base),
+        }
+    }
+}
+
+impl PrincipledBsdf {
+    pub fn new(m: &Surface, wo: Vec3) -> Self {
+        Self::at(&PrincipledLobes::new(m), wo)
+    }
+
+    pub fn at(m: &PrincipledLobes, wo: Vec3) -> Self {
+        let PrincipledLobes { base, metallic, specular, roughness, alpha, smooth, .. } = *m;
         let mu = wo.z.clamp(0.0, 1.0);
-        if m.is_pure_lambert() {
+        if m.pure_lambert {
             // No glossy lobe, nothing to look up.
             return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0 };
         }
@@ -69,12 +119,10 @@ impl PrincipledBsdf {
         let (s_metal, s_dielectric, layer) = if smooth {
             (Vec3::ONE, 1.0, fresnel_dielectric(mu, DIELECTRIC_ETA))
         } else {
-            let t = tables();
-            let (e, e_avg) = (t.e(mu, roughness), t.e_avg(roughness));
-            let s_dielectric = ms_scale(e, e_avg, Vec3::splat(t.dielectric_f_avg)).x;
-            let layer = t.e_layer(mu, roughness);
+            let (e, layer) = tables().e_and_layer(mu, roughness);
+            let s_dielectric = ms_scale(e, Vec3::splat(m.f_ms_dielectric)).x;
             if m.multiscatter {
-                (ms_scale(e, e_avg, schlick_average(base)), s_dielectric, layer)
+                (ms_scale(e, m.f_ms_metal), s_dielectric, layer)
             } else {
                 // Plain GGX: the lobes lose what single scattering loses,
                 // but Cycles weights the base below by the albedo its
@@ -90,8 +138,8 @@ impl PrincipledBsdf {
         // Lobe choice by expected reflectance at this wo: the metal's ≈ its
         // average Fresnel, the dielectric layer's E_layer. As in the seed
         // model, a narrow dielectric lobe gets at least a floor share.
-        let w_glossy = metallic * luminance(schlick_average(base)) + (1.0 - metallic) * specular * layer;
-        let w_diffuse = diffuse_weight * luminance(base);
+        let w_glossy = metallic * m.metal_reflectance + (1.0 - metallic) * specular * layer;
+        let w_diffuse = diffuse_weight * m.base_luminance;
         let mut glossy_probability = if w_glossy + w_diffuse > 0.0 { w_glossy / (w_glossy + w_diffuse) } else { 1.0 };
         if w_glossy > 0.0 && w_diffuse > 0.0 {
             glossy_probability = glossy_probability.max(SPEC_MIN_SHARE * (1.0 - roughness) * (1.0 - roughness));

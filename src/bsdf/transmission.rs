@@ -48,7 +48,12 @@ impl<B: Bsdf> WithGlass<B> {
 }
 
 impl<B: Bsdf> Bsdf for WithGlass<B> {
-    fn new(surface: &Surface, wo: Vec3) -> Self {
+    // The base's surface depends on the glass's share: nothing is shared.
+    type Prepared = Surface;
+    fn prepare(surface: &Surface) -> Surface {
+        *surface
+    }
+    fn at(surface: &Surface, wo: Vec3) -> Self {
         WithGlass::new(surface, wo)
     }
 
