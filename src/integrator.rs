@@ -430,14 +430,18 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previou
 fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let to_light = ls.point - si.p;
     let dist2 = to_light.length_squared();
-    // An emitter seen edge-on has an infinite density and gives nothing.
-    if !(dist2 > 0.0 && ls.pdf > 0.0 && ls.pdf.is_finite()) {
+    if !(dist2 > 0.0) {
         return Vec3::ZERO;
     }
     let dist = dist2.sqrt();
     let wi = to_light / dist;
-    let Some(wi_local) = toward_light(si, bsdf, wi) else { return Vec3::ZERO };
     let cos_light = ls.normal.dot(-wi);
+    let pdf = ls.pdf(dist2, cos_light);
+    // An emitter seen edge-on has an infinite density and gives nothing.
+    if !(pdf > 0.0 && pdf.is_finite()) {
+        return Vec3::ZERO;
+    }
+    let Some(wi_local) = toward_light(si, bsdf, wi) else { return Vec3::ZERO };
     let light_tri = &ctx.scene.triangles[ls.triangle as usize];
     let le = shading::emission_at(ctx.scene, &ctx.scene.materials[light_tri.material as usize], ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0);
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
@@ -456,8 +460,8 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if !(length > 0.0) || ctx.occluded(origin, segment / length, length, ls.triangle, rng) {
         return Vec3::ZERO;
     }
-    let weight = if mis { power_heuristic(ls.pdf, bsdf_pdf) } else { 1.0 };
-    le * f * (weight * wi_local.z.abs() / ls.pdf)
+    let weight = if mis { power_heuristic(pdf, bsdf_pdf) } else { 1.0 };
+    le * f * (weight * wi_local.z.abs() / pdf)
 }
 
 /// Emission `le` of emitting triangle `triangle` seen by a ray at distance

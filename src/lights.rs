@@ -126,9 +126,29 @@ pub struct LightSample {
     pub point: Vec3,
     /// Unit face normal of the emitter (its front side).
     pub normal: Vec3,
-    /// Density of the direction towards the point, per steradian at the
-    /// shading point; infinite where the emitter is seen edge-on.
-    pub pdf: f32,
+    density: Density,
+}
+
+/// How a light sample's density is known: per steradian where it was drawn
+/// by solid angle, else per unit area of the emitter — the shading point
+/// converts it with the distance and cosine it computes anyway (here they
+/// had been a square root and three divisions of every light sample).
+#[derive(Clone, Copy)]
+enum Density {
+    SolidAngle(f32),
+    Area(f32),
+}
+
+impl LightSample {
+    /// Density of the direction towards the point, per steradian at a
+    /// shading point √`dist2` away that sees the emitter with cosine
+    /// `cos_light`; infinite where the emitter is seen edge-on.
+    pub fn pdf(&self, dist2: f32, cos_light: f32) -> f32 {
+        match self.density {
+            Density::SolidAngle(pdf) => pdf,
+            Density::Area(pdf_area) => solid_angle_density(pdf_area, dist2, cos_light),
+        }
+    }
 }
 
 impl Lights {
@@ -289,14 +309,11 @@ impl Lights {
             (None, _) => uniform_triangle(u),
         };
         let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
-        let pdf = match view {
-            Some(view) => pdf_area * emitter.area / view.solid_angle,
-            None => {
-                let to_p = p - point;
-                solid_angle_density(pdf_area, to_p.length_squared(), normal.dot(to_p.normalize_or_zero()))
-            }
+        let density = match view {
+            Some(view) => Density::SolidAngle(pdf_area * emitter.area / view.solid_angle),
+            None => Density::Area(pdf_area),
         };
-        Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, pdf }))
+        Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, density }))
     }
 
     /// The density per steradian with which `sample`, from `p`, reaches
