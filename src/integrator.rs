@@ -566,6 +566,45 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::{PrincipledBsdf, WithGlass};
+    use crate::camera::Camera;
+    use crate::material::Material;
+    use crate::scene::Triangle;
+
+    /// A BSDF made from a material's prepared part is the one a hit would
+    /// build from its surface, on either face (the back face inverts the
+    /// IOR), bit for bit; vertex colours make every material vary, so none
+    /// is prepared.
+    #[test]
+    fn prepared_materials_give_the_bsdf_a_hit_builds() {
+        let tri = Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], n: [Vec3::Z; 3], material: 0 };
+        let materials = vec![
+            Material { base_color: Vec3::new(0.8, 0.3, 0.1), metallic: 0.3, roughness: 0.4, ior: 1.45, ..Material::default() },
+            Material { base_color: Vec3::splat(0.5), metallic: 0.0, roughness: 0.0, specular: 0.6, ..Material::default() },
+        ];
+        let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
+        let mut scene = Scene::new(vec![tri], materials, camera);
+        let wo = Vec3::new(0.3, -0.2, 0.9).normalize();
+        // Reflected, and transmitted (where glass's IOR shows).
+        let directions = [Vec3::new(-0.5, 0.1, 0.6).normalize(), Vec3::new(-0.4, 0.3, -0.7).normalize()];
+        fn check<B: Bsdf>(scene: &Scene, wo: Vec3, directions: &[Vec3]) {
+            for (m, faces) in scene.materials.iter().zip(prepare_materials::<B>(scene)) {
+                let faces = faces.expect("a plain material is prepared");
+                for (face, front) in faces.iter().zip([true, false]) {
+                    let (a, b) = (B::at(face, wo), B::new(&facing(m.surface(), front), wo));
+                    for &wi in directions {
+                        let ((fa, pa), (fb, pb)) = (a.evaluate(wo, wi), b.evaluate(wo, wi));
+                        assert_eq!((fa.to_array().map(f32::to_bits), pa.to_bits()), (fb.to_array().map(f32::to_bits), pb.to_bits()), "{} front {front} wi {wi}", m.name);
+                    }
+                }
+            }
+        }
+        check::<PrincipledBsdf>(&scene, wo, &directions);
+        scene.materials.push(Material { name: "glass".into(), metallic: 0.0, roughness: 0.3, transmission: 1.0, ior: 1.5, ..Material::default() });
+        check::<WithGlass<PrincipledBsdf>>(&scene, wo, &directions);
+        scene.attributes.color = vec![[glam::Vec4::ONE; 3]];
+        assert!(prepare_materials::<PrincipledBsdf>(&scene).iter().all(Option::is_none));
+    }
 
     #[test]
     fn offset_leaves_the_surface_at_every_scale() {
