@@ -56,12 +56,33 @@ impl Camera {
     /// A primary ray through a point on the image plane given in pixels
     /// (x right, y down, continuous: the pixel (i, j) spans [i, i+1)×[j, j+1)).
     pub fn ray(&self, pixel: Vec2, width: u32, height: u32) -> (Vec3, Vec3) {
-        let tan_half = (0.5 * self.yfov).tan();
-        let aspect = width as f32 / height as f32;
-        let sx = (2.0 * pixel.x / width as f32 - 1.0) * tan_half * aspect;
-        let sy = (1.0 - 2.0 * pixel.y / height as f32) * tan_half;
-        let dir = (self.forward + self.right * sx + self.up * sy).normalize();
-        (self.position, dir)
+        self.lens(width, height).ray(pixel)
+    }
+
+    /// The camera for an image of this size: what every primary ray shares,
+    /// computed once a pass (a tangent per ray had been 1% of a render).
+    pub fn lens(&self, width: u32, height: u32) -> Lens<'_> {
+        Lens { camera: self, tan_half: (0.5 * self.yfov).tan(), aspect: width as f32 / height as f32, width: width as f32, height: height as f32 }
+    }
+}
+
+/// A camera and an image size (`Camera::lens`).
+pub struct Lens<'a> {
+    camera: &'a Camera,
+    tan_half: f32,
+    aspect: f32,
+    width: f32,
+    height: f32,
+}
+
+impl Lens<'_> {
+    /// `Camera::ray`.
+    pub fn ray(&self, pixel: Vec2) -> (Vec3, Vec3) {
+        let c = self.camera;
+        let sx = (2.0 * pixel.x / self.width - 1.0) * self.tan_half * self.aspect;
+        let sy = (1.0 - 2.0 * pixel.y / self.height) * self.tan_half;
+        let dir = (c.forward + c.right * sx + c.up * sy).normalize();
+        (c.position, dir)
     }
 }
 

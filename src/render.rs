@@ -135,6 +135,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let (w, h) = (settings.width, settings.height);
     assert_eq!((film.width, film.height), (w, h), "film does not match the settings");
     let prepared = prepare_materials::<B>(ctx.scene);
+    let lens = ctx.scene.camera.lens(w, h);
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE))).collect();
     let results: Vec<Option<(u32, u32, Vec<Vec3>, PassStats)>> = tiles
         .par_iter()
@@ -152,7 +153,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     for s in samples.clone() {
                         let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, pixel, s as u64);
                         let jitter = rng.next_2d();
-                        let (o, d) = ctx.scene.camera.ray(Vec2::new(x as f32, y as f32) + jitter, w, h);
+                        let (o, d) = lens.ray(Vec2::new(x as f32, y as f32) + jitter);
                         let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, o, d, settings, &mut rng, &mut stats.rays);
                         if l.is_finite() {
                             sum += l;
