@@ -114,8 +114,9 @@ impl Accel {
         let (mut packs, mut pack_ids) = (Vec::with_capacity(bvh.leaves.len()), Vec::with_capacity(bvh.leaves.len()));
         for &(first, count) in &bvh.leaves {
             let leaf = &ids[first as usize..(first + count) as usize];
-            let corners: Vec<[Vec3; 3]> = leaf.iter().map(|&i| triangles[i as usize].p).collect();
-            packs.push(TrianglePack::new(&corners));
+            let mut corners = [[Vec3::ZERO; 3]; 4];
+            leaf.iter().zip(&mut corners).for_each(|(&i, c)| *c = triangles[i as usize].p);
+            packs.push(TrianglePack::new(&corners[..leaf.len()]));
             let mut lanes = [u32::MAX; 4];
             lanes[..leaf.len()].copy_from_slice(leaf);
             pack_ids.push(lanes);
