@@ -141,17 +141,8 @@ impl EnergyTables {
         EnergyTables { e, e_avg, e_layer, dielectric_f_avg: f_avg }
     }
 
-    fn bilinear(table: &[f32], mu: f32, roughness: f32) -> f32 {
-        let (x, y) = (column(mu), row(roughness));
-        let j = (y as usize).min(N - 2);
-        let a = lerp_grid(&table[j * N..(j + 1) * N], x);
-        let b = lerp_grid(&table[(j + 1) * N..(j + 2) * N], x);
-        let t = y - j as f32;
-        a * (1.0 - t) + b * t
-    }
-
     pub fn e(&self, mu: f32, roughness: f32) -> f32 {
-        Self::bilinear(&self.e, mu, roughness)
+        GridPoint::at(mu, roughness).read(&self.e)
     }
 
     pub fn e_avg(&self, roughness: f32) -> f32 {
@@ -159,23 +150,40 @@ impl EnergyTables {
     }
 
     pub fn e_layer(&self, mu: f32, roughness: f32) -> f32 {
-        Self::bilinear(&self.e_layer, mu, roughness)
+        GridPoint::at(mu, roughness).read(&self.e_layer)
     }
 
     /// `e` and `e_layer` at once: the same numbers, the grid position
     /// (a square root and two roundings) found once.
     pub fn e_and_layer(&self, mu: f32, roughness: f32) -> (f32, f32) {
+        let at = GridPoint::at(mu, roughness);
+        (at.read(&self.e), at.read(&self.e_layer))
+    }
+}
+
+/// Where (μ, roughness) falls on the N × N grid: the cell's corner and the
+/// fractions across it, for bilinear reads of any table on that grid.
+struct GridPoint {
+    i: usize,
+    j: usize,
+    tx: f32,
+    ty: f32,
+}
+
+impl GridPoint {
+    fn at(mu: f32, roughness: f32) -> Self {
         let (x, y) = (column(mu), row(roughness));
-        let j = (y as usize).min(N - 2);
-        let i = (x as usize).min(N - 2);
-        let (tx, ty) = (x - i as f32, y - j as f32);
-        let at = |table: &[f32]| {
-            let (r0, r1) = (&table[j * N + i..j * N + i + 2], &table[(j + 1) * N + i..(j + 1) * N + i + 2]);
-            let a = r0[0] * (1.0 - tx) + r0[1] * tx;
-            let b = r1[0] * (1.0 - tx) + r1[1] * tx;
-            a * (1.0 - ty) + b * ty
-        };
-        (at(&self.e), at(&self.e_layer))
+        let (i, j) = ((x as usize).min(N - 2), (y as usize).min(N - 2));
+        GridPoint { i, j, tx: x - i as f32, ty: y - j as f32 }
+    }
+
+    /// Along μ in rows j and j + 1 (as `lerp_grid`), then across them.
+    fn read(&self, table: &[f32]) -> f32 {
+        let (k0, k1) = (self.j * N + self.i, (self.j + 1) * N + self.i);
+        let (r0, r1) = (&table[k0..k0 + 2], &table[k1..k1 + 2]);
+        let a = r0[0] * (1.0 - self.tx) + r0[1] * self.tx;
+        let b = r1[0] * (1.0 - self.tx) + r1[1] * self.tx;
+        a * (1.0 - self.ty) + b * self.ty
     }
 }
 
@@ -225,14 +233,23 @@ mod tests {
         assert!((t.e_layer(1.0, 0.0) - 0.04).abs() < 1e-4);
     }
 
+    /// The joint lookup is both lookups, and each is `lerp_grid` along μ in
+    /// two rows then across them, bit for bit.
     #[test]
     fn the_joint_lookup_is_both_lookups_bit_for_bit() {
         let t = tables();
+        let rows = |table: &[f32], mu: f32, roughness: f32| {
+            let (x, y) = (column(mu), row(roughness));
+            let j = (y as usize).min(N - 2);
+            let (a, b) = (lerp_grid(&table[j * N..(j + 1) * N], x), lerp_grid(&table[(j + 1) * N..(j + 2) * N], x));
+            a * (1.0 - (y - j as f32)) + b * (y - j as f32)
+        };
         for ri in 0..=40 {
             for mi in 0..=40 {
                 let (mu, roughness) = (mi as f32 / 40.0, ri as f32 / 40.0);
                 let (e, layer) = t.e_and_layer(mu, roughness);
                 assert_eq!((e.to_bits(), layer.to_bits()), (t.e(mu, roughness).to_bits(), t.e_layer(mu, roughness).to_bits()), "μ {mu} r {roughness}");
+                assert_eq!((e.to_bits(), layer.to_bits()), (rows(&t.e, mu, roughness).to_bits(), rows(&t.e_layer, mu, roughness).to_bits()), "μ {mu} r {roughness}");
             }
         }
     }

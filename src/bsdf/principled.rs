@@ -78,7 +78,8 @@ impl PrincipledLobes {
         // exactly as KHR_materials_specular does (an approximation between
         // the tables' exact ends, like s itself).
         let ior_ratio = (m.ior - 1.0) / (m.ior + 1.0) / 0.2;
-        let (f_ms_metal, f_ms_dielectric) = if m.is_pure_lambert() || alpha * alpha <= SMOOTH_ALPHA_SQ {
+        let (smooth, pure_lambert) = (alpha * alpha <= SMOOTH_ALPHA_SQ, m.is_pure_lambert());
+        let (f_ms_metal, f_ms_dielectric) = if pure_lambert || smooth {
             (Vec3::ZERO, 0.0)
         } else {
             let t = tables();
@@ -91,8 +92,8 @@ impl PrincipledLobes {
             specular: (m.specular * ior_ratio * ior_ratio).clamp(0.0, 4.0),
             roughness,
             alpha,
-            smooth: alpha * alpha <= SMOOTH_ALPHA_SQ,
-            pure_lambert: m.is_pure_lambert(),
+            smooth,
+            pure_lambert,
             multiscatter: m.multiscatter,
             f_ms_metal,
             f_ms_dielectric,
