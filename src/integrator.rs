@@ -48,6 +48,8 @@
 use crate::accel::{Accel, Hit};
 use crate::bsdf::Bsdf;
 use crate::features::{Features, Kernel};
+use crate::light_paths::LightVertex;
+pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
 use crate::punctual::PunctualLight;
@@ -60,6 +62,9 @@ use crate::shading::{self, Barycentric};
 use crate::environment;
 use glam::{Vec2, Vec3};
 
+/// The deepest camera vertex that connects to light vertices: deeper ones
+/// carry less of the pixel, and each connection costs a shadow ray.
+const CONNECT_MAX_DEPTH: u32 = 1;
 pub const RR_START_DEPTH: u32 = 3;
 /// The throughput under which Russian roulette starts ending paths.
 const RR_THRESHOLD: f32 = 0.2;
@@ -105,7 +110,7 @@ impl<'a> Context<'a> {
     /// surface it passes through (MASK, BLEND; shading.rs) is skipped as the
     /// traversal meets it.
     #[inline]
-    fn intersect(&self, o: Vec3, d: Vec3, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
+    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
         if let Some(log) = &self.ray_log {
             log.push(TracedRay { kind, origin: o, dir: d, tmax: f32::INFINITY, skip: u32::MAX });
         }
@@ -197,6 +202,14 @@ pub struct SurfaceHit {
 
 impl SurfaceHit {
     pub fn new(scene: &Scene, hit: &Hit, dir: Vec3) -> Self {
+        Self::with_normal(scene, hit, dir).0
+    }
+
+    /// `new`, and the interpolated shading normal on `ng`'s side before
+    /// the fallback for a viewer below it (zero where there is none): a
+    /// light vertex is viewed from elsewhere than its ray came from
+    /// (`light_paths.rs`).
+    pub fn with_normal(scene: &Scene, hit: &Hit, dir: Vec3) -> (Self, Vec3) {
         let tri = &scene.triangles[hit.triangle as usize];
         let material = &scene.materials[tri.material as usize];
         let b = Barycentric::new(hit.b1, hit.b2);
@@ -211,18 +224,22 @@ impl SurfaceHit {
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
-        // Interpolated normals can put the viewer below the shading
-        // hemisphere near silhouettes; the face normal is the honest fallback.
-        if ns == Vec3::ZERO || ns.dot(-dir) <= 0.0 {
-            ns = ng;
-        }
         let surface = facing(shading::surface_at(scene, material, hit.triangle, b), front_face);
-        SurfaceHit { p, p_error, ng, frame: Frame::from_normal(ns), front_face, material: tri.material, triangle: hit.triangle, b, surface }
+        let frame = Frame::from_normal(shading_normal_for(ns, ng, -dir));
+        (SurfaceHit { p, p_error, ng, frame, front_face, material: tri.material, triangle: hit.triangle, b, surface }, ns)
     }
 
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
         offset_origin(self.p, self.p_error, self.ng, w)
     }
+}
+
+/// The shading normal a viewer in direction `toward_viewer` sees:
+/// interpolated normals can put the viewer below the shading hemisphere
+/// near silhouettes; the face normal is the honest fallback.
+#[inline]
+pub fn shading_normal_for(ns: Vec3, ng: Vec3, toward_viewer: Vec3) -> Vec3 {
+    if ns == Vec3::ZERO || ns.dot(toward_viewer) <= 0.0 { ng } else { ns }
 }
 
 /// A surface as a ray meets it from one side: leaving a closed object
@@ -277,18 +294,46 @@ fn shade<B: Bsdf>(bsdf: &B, wo: Vec3, wi: Vec3, mis: bool) -> (Vec3, f32) {
 
 /// Power heuristic (β = 2) weight of a strategy with pdf `a` against `b`.
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    power_heuristic3(a, b, 0.0)
+}
+
+/// The same against two others, `b` and `c` (a light subpath's
+/// connection, light_paths.rs, is the third where it can make the path).
+pub fn power_heuristic3(a: f32, b: f32, c: f32) -> f32 {
     if a.is_infinite() {
         return 1.0;
     }
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else if a > b { 1.0 } else { 0.0 }
+    let (a2, sum) = (a * a, a * a + b * b + c * c);
+    if sum > 0.0 && sum.is_finite() { a2 / sum } else if a > b.max(c) { 1.0 } else { 0.0 }
+}
+
+/// Whether a camera vertex at `depth` connects to a light vertex: the
+/// path it makes has two more scattering events, which `max_depth` must
+/// allow. Its MIS partners ask the same.
+#[inline]
+fn connects_at(depth: u32, max_depth: u32) -> bool {
+    depth + 2 <= max_depth && depth <= CONNECT_MAX_DEPTH
+}
+
+/// q of light_paths.rs for a vertex reached from a camera vertex that
+/// connects: the subpath density p_y0 of the emitter, times `connect`
+/// (d²/(π·p_z) of that vertex), where the light and the previous vertex
+/// are on the same side of it (a connection reflects, never transmits).
+#[inline]
+fn connection_density(ctx: &Context, connect: f32, emitter: u32, reflects: bool) -> f32 {
+    if connect > 0.0 && reflects {
+        ctx.lights.emission_density(&ctx.scene.materials[ctx.scene.triangles[emitter as usize].material as usize]) * connect
+    } else {
+        0.0
+    }
 }
 
 /// L_dir at one surface point: one light sample and its shadow ray,
 /// MIS-weighted against BSDF sampling when `mis` is set.
 /// With no light at all it draws no random numbers, so a kernel that
 /// leaves light sampling out sees the same random sequence.
-fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+#[allow(clippy::too_many_arguments)]
+fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, connect: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     if ctx.lights.is_empty() {
         return Vec3::ZERO;
     }
@@ -297,7 +342,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     match ctx.lights.sample(ctx.scene, si.p, u_pick, u) {
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
-        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, &ls, rng, rays),
+        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, connect, &ls, rng, rays),
         Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, mis, &ctx.scene.punctual[index], probability, u, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
@@ -353,6 +398,12 @@ struct Previous {
     /// whether it came from a delta lobe (which light sampling cannot match).
     bsdf_pdf: f32,
     delta: bool,
+    /// d²/(π·p_z) of this vertex where the camera vertex z before it
+    /// connects to light vertices, else 0 (`connection_density`).
+    connect: f32,
+    /// Whether this vertex connects: what a vertex reached from it
+    /// computes `connect` by.
+    connects: bool,
 }
 
 impl Previous {
@@ -362,10 +413,16 @@ impl Previous {
     /// none under the seed's rule (light sampling alone counts emitters
     /// after the first hit).
     fn weight(&self, mis: bool, p_light: impl FnOnce() -> f32) -> f32 {
+        self.weight3(mis, p_light, 0.0)
+    }
+
+    /// `weight` where a light subpath's connection, with density `q`
+    /// (`connection_density`), could also have made the path.
+    fn weight3(&self, mis: bool, p_light: impl FnOnce() -> f32, q: f32) -> f32 {
         if self.depth == 0 || (mis && self.delta) {
             1.0
         } else if mis {
-            power_heuristic(self.bsdf_pdf, p_light())
+            power_heuristic3(self.bsdf_pdf, p_light(), q)
         } else {
             0.0
         }
@@ -427,7 +484,7 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previou
 
 /// One point on an emitting triangle and its shadow ray.
 #[allow(clippy::too_many_arguments)]
-fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, connect: f32, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let to_light = ls.point - si.p;
     let dist2 = to_light.length_squared();
     if !(dist2 > 0.0) {
@@ -460,17 +517,77 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if !(length > 0.0) || ctx.occluded(origin, segment / length, length, ls.triangle, rng) {
         return Vec3::ZERO;
     }
-    let weight = if mis { power_heuristic(pdf, bsdf_pdf) } else { 1.0 };
+    let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, connect, ls.triangle, wi.dot(si.ng) > 0.0)) } else { 1.0 };
     le * f * (weight * wi_local.z.abs() / pdf)
 }
 
 /// Emission `le` of emitting triangle `triangle` seen by a ray at distance
 /// `t`, cosine `cos_light` at the emitter.
-fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, cos_light: f32, from: &Previous, mis: bool) -> Vec3 {
+/// `d` the ray's direction.
+fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_light: f32, from: &Previous, mis: bool) -> Vec3 {
     if le == Vec3::ZERO {
         return le;
     }
-    le * from.weight(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, t * t, cos_light))
+    let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng) > 0.0);
+    le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, t * t, cos_light), q)
+}
+
+/// Light vertex `v`'s light, reaching camera vertex `si` (BSDF `bsdf`,
+/// outgoing direction `wo` in its frame) along one connection
+/// (light_paths.rs), MIS-weighted against the camera path's two ways to
+/// the same light.
+#[allow(clippy::too_many_arguments)]
+fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, bsdf: &B, wo: Vec3, v: &LightVertex, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let y = &v.hit;
+    let to_y = y.p - si.p;
+    let d2 = to_y.length_squared();
+    if !(d2 > 0.0) {
+        return Vec3::ZERO;
+    }
+    let w = to_y / d2.sqrt();
+    // z must see y1 from the side its light came from, and each lie off
+    // the other's plane by more than their rounding: a point of a corner
+    // can sit on the plane of the wall it meets, and a ray between the two
+    // would pass the wall's edge (light from outside a closed box).
+    let rounding = y.ng.abs().dot(y.p_error) + si.ng.abs().dot(si.p_error);
+    let cos_y = -w.dot(y.ng);
+    if !(cos_y > 0.0 && -to_y.dot(y.ng) > rounding && to_y.dot(si.ng).abs() > rounding) {
+        return Vec3::ZERO;
+    }
+    let Some(wi_z) = toward_light(si, bsdf, w) else { return Vec3::ZERO };
+    let (f_z, pdf_z) = bsdf.evaluate(wo, wi_z);
+    if f_z == Vec3::ZERO || !(pdf_z > 0.0) {
+        return Vec3::ZERO;
+    }
+    // y1 as a camera path through z would shade it.
+    let frame = Frame::from_normal(shading_normal_for(v.ns, y.ng, -w));
+    let (wo_y, wi_y) = (frame.to_local(-w), frame.to_local(v.to_light));
+    if !(wi_y.z > 0.0 && wo_y.z > 0.0) {
+        return Vec3::ZERO;
+    }
+    let bsdf_y = match &prepared[y.material as usize] {
+        Some(faces) => B::at(&faces[!y.front_face as usize], wo_y),
+        None => B::new(&y.surface, wo_y),
+    };
+    let (f_y, pdf_y) = bsdf_y.evaluate(wo_y, wi_y);
+    if f_y == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let contribution = f_z * f_y * v.alpha * (wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_light.dot(y.ng));
+    let q = v.emission_density * d2 / (std::f32::consts::PI * pdf_z);
+    let weight = power_heuristic3(q, pdf_y, v.light_pdf);
+    if !(contribution * weight).is_finite() || weight == 0.0 {
+        return Vec3::ZERO;
+    }
+    let origin = si.spawn_origin(w);
+    let target = offset_origin(y.p, y.p_error, y.ng, -w);
+    let segment = target - origin;
+    let length = segment.length();
+    rays.shadow += 1;
+    if !(length > 0.0) || ctx.occluded(origin, segment / length, length, y.triangle, rng) {
+        return Vec3::ZERO;
+    }
+    contribution * weight
 }
 
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
@@ -479,6 +596,7 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, cos_light: f32,
 pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
     ctx: &Context,
     prepared: &[Option<[B::Prepared; 2]>],
+    light_vertices: Option<&LightVertices>,
     origin: Vec3,
     dir: Vec3,
     settings: &RenderSettings,
@@ -489,7 +607,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
-    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false };
+    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, connects: false };
     rays.camera += 1;
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
@@ -503,7 +621,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             // Blender hides lights from the camera unless told otherwise.
             if depth > 0 || material.camera_sees_lamp {
                 let cos_light = tri.cross().normalize().dot(d);
-                l += beta * emission_seen(ctx, lamp.triangle, material.emitted(cos_light < 0.0), lamp.t, cos_light, &from, settings.mis);
+                l += beta * emission_seen(ctx, lamp.triangle, material.emitted(cos_light < 0.0), lamp.t, d, cos_light, &from, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() {
@@ -517,7 +635,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let material = &ctx.scene.materials[si.material as usize];
         if AREA {
             let le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
-            l += beta * emission_seen(ctx, si.triangle, le, hit.t, si.ng.dot(d), &from, settings.mis);
+            l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, settings.mis);
         }
         if depth == max_depth {
             break;
@@ -527,8 +645,18 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             Some(faces) => B::at(&faces[!si.front_face as usize], wo),
             None => B::new(&si.surface, wo),
         };
+        // This vertex's d²/(π·p_z) where the vertex before it connects.
+        let connect = if from.connects && from.bsdf_pdf > 0.0 { hit.t * hit.t / (std::f32::consts::PI * from.bsdf_pdf) } else { 0.0 };
         if AREA || PUNCTUAL || ctx.lights.has_world() {
-            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, rng, rays);
+            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, connect, rng, rays);
+        }
+        let connects = AREA && light_vertices.is_some() && connects_at(depth, max_depth);
+        if connects {
+            // A number of the sample's own stream: the Sobol sets stay
+            // with the light sample and the BSDF's.
+            if let Some(v) = light_vertices.and_then(|vertices| vertices.pick(rng.next_u32())) {
+                l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, rng, rays);
+            }
         }
         // Under the seed's rule a ray after the last vertex could only see
         // the World behind a mirror: paths end here, as the seed's did.
@@ -557,7 +685,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         o = si.spawn_origin(wi);
         d = wi;
-        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta };
+        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta, connect, connects: connects && !s.delta };
         rays.bounce += 1;
     }
     l

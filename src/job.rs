@@ -38,6 +38,7 @@ pub struct JobOptions {
     /// An environment image for the World (replaces `background`).
     pub environment: Option<crate::request::EnvironmentRequest>,
     pub sampler: Option<crate::rng::Sampler>,
+    pub light_paths: Option<bool>,
 }
 
 impl JobOptions {
@@ -60,6 +61,7 @@ impl JobOptions {
             features: self.features.or(f.features),
             environment: self.environment.or(f.environment),
             sampler: self.sampler.or(f.sampler),
+            light_paths: self.light_paths.or(f.light_paths),
         }
     }
 }
@@ -81,6 +83,7 @@ impl From<&RenderRequest> for JobOptions {
             two_sided_emission: r.two_sided_emission,
             features: None,
             sampler: None,
+            light_paths: None,
             environment: r.environment.clone(),
         }
     }
@@ -183,6 +186,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         bsdf: options.bsdf.unwrap_or_default(),
         features: options.features.unwrap_or_default(),
         sampler: options.sampler.unwrap_or_default(),
+        light_paths: options.light_paths.unwrap_or(true),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

@@ -7,6 +7,7 @@ pub mod features;
 pub mod integrator;
 pub mod job;
 pub mod lamps;
+pub mod light_paths;
 pub mod lights;
 pub mod loader;
 pub mod memory;

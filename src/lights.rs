@@ -24,6 +24,10 @@
 //! the shading point, the measure MIS compares them in.
 
 use crate::bsdf::luminance;
+use crate::integrator::{offset_origin, point_on_triangle};
+use crate::material::Material;
+use crate::sampling::{cosine_hemisphere, Frame};
+use crate::shading::{self, Barycentric};
 use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
@@ -149,6 +153,21 @@ impl LightSample {
             Density::Area(pdf_area) => solid_angle_density(pdf_area, dist2, cos_light),
         }
     }
+}
+
+/// Where a light subpath starts (`Lights::sample_emission`).
+pub struct EmissionSample {
+    pub triangle: u32,
+    /// The point on the emitter, moved off it by its error bound.
+    pub origin: Vec3,
+    /// Unit normal of the emitting face.
+    pub normal: Vec3,
+    /// Unit direction of the first ray, cosine-distributed about `normal`.
+    pub dir: Vec3,
+    /// Radiance leaving along `dir` (W·sr⁻¹·m⁻²).
+    pub le: Vec3,
+    /// `Lights::emission_density` of the point and face.
+    pub density: f32,
 }
 
 impl Lights {
@@ -314,6 +333,41 @@ impl Lights {
             None => Density::Area(pdf_area),
         };
         Some(LightChoice::Area(LightSample { triangle, b1: b.x, b2: b.y, point, normal, density }))
+    }
+
+    /// The area density with which `sample_emission` starts a light
+    /// subpath on a point (and face) of an emitter of material `m`: its
+    /// pick by power and point by area, halved for a two-sided emitter,
+    /// whose face is a coin toss. The same wherever the path is going,
+    /// unlike `pdf_area`.
+    pub fn emission_density(&self, m: &Material) -> f32 {
+        let face = if m.double_sided { 0.5 } else { 1.0 };
+        self.local_pdf_area(m.emission) * face
+    }
+
+    /// The start of a light subpath (light_paths.rs): an emitter by power,
+    /// a point on it by area, a face, and a cosine-weighted direction from
+    /// it. None where the pick lands on a punctual light (they start no
+    /// subpaths) or the point emits nothing.
+    pub fn sample_emission(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
+        if self.triangles.is_empty() || self.distribution.is_empty() {
+            return None;
+        }
+        let (pick, u_face) = self.distribution.sample_remapped(u_pick);
+        let &triangle = self.triangles.get(pick)?;
+        let tri = &scene.triangles[triangle as usize];
+        let m = &scene.materials[tri.material as usize];
+        let b = uniform_triangle(u_point);
+        let front = !m.double_sided || u_face < 0.5;
+        let le = shading::emission_at(scene, m, triangle, Barycentric::new(b.x, b.y), front);
+        let local = cosine_hemisphere(u_dir);
+        if le == Vec3::ZERO || !(local.z > 0.0) {
+            return None;
+        }
+        let normal = if front { self.emitters[pick].normal } else { -self.emitters[pick].normal };
+        let (point, error) = point_on_triangle(&tri.p, b.x, b.y);
+        let origin = offset_origin(point, error, normal, normal);
+        Some(EmissionSample { triangle, origin, normal, dir: Frame::from_normal(normal).to_world(local), le, density: self.emission_density(m) })
     }
 
     /// The density per steradian with which `sample`, from `p`, reaches

@@ -63,6 +63,11 @@ struct RenderOptions {
     /// where BSDF-sampled rays ignore emitters) [default: on].
     #[arg(long, value_parser = ["on", "off"])]
     mis: Option<String>,
+    /// Connections of camera vertices to light subpaths (bidirectional
+    /// path tracing's s = 2 strategy; needs MIS and emitting surfaces)
+    /// [default: on].
+    #[arg(long, value_parser = ["on", "off"])]
+    light_paths: Option<String>,
     /// BSDF model: what Cycles' Principled BSDF does, or the seed's formulas [default: principled].
     #[arg(long, value_parser = ["principled", "seed"])]
     bsdf: Option<String>,
@@ -114,6 +119,7 @@ impl RenderOptions {
             max_depth: self.max_depth,
             seed: self.seed,
             mis: self.mis.as_deref().map(|m| m == "on"),
+            light_paths: self.light_paths.as_deref().map(|m| m == "on"),
             sampler: self.sampler.as_deref().map(|s| if s == "random" { Sampler::Random } else { Sampler::Sobol }),
             camera: self.camera.clone(),
             scene_index: self.scene_index,
