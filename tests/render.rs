@@ -389,7 +389,7 @@ fn light_paths_keep_the_image_and_lower_the_noise_of_a_lamp_under_a_ceiling() {
     let mut scene = closed_box(0.6, 0.0);
     scene.materials.push(common::emitter(Vec3::splat(20.0)));
     scene.materials[1].double_sided = true;
-    scene.materials.push(glint::material::Material { name: "plate".into(), base_color: Vec3::new(0.9, 0.6, 0.3), metallic: 1.0, roughness: 0.4, ..glint::material::Material::default() });
+    scene.materials.push(glint::material::Material { name: "plate".into(), base_color: Vec3::new(0.9, 0.6, 0.3), metallic: 1.0, roughness: 0.6, ..glint::material::Material::default() });
     scene.triangles.extend(common::horizontal_quad(Vec3::ZERO, 0.3, 0.98, false, 1));
     scene.triangles.extend(common::horizontal_quad(Vec3::new(0.2, 0.0, -0.4), 0.3, -0.99, true, 2));
     let scene = Scene::new(scene.triangles, scene.materials, scene.camera);
