@@ -103,7 +103,15 @@ impl<'a> Context<'a> {
 
     /// The line every render starts with: what the scene uses, what runs.
     pub fn features_line(&self, settings: &RenderSettings) -> String {
-        format!("features: {}; kernel: {}", self.features, self.kernel(settings))
+        let light_paths = if self.traces_light_paths(settings) { " + light paths" } else { "" };
+        format!("features: {}; kernel: {}{light_paths}", self.features, self.kernel(settings))
+    }
+
+    /// Whether a render connects to light subpaths (light_paths.rs): they
+    /// need emitting triangles to start from, MIS to weigh them, and room
+    /// for a connection's two scattering events.
+    pub fn traces_light_paths(&self, settings: &RenderSettings) -> bool {
+        settings.light_paths && settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty()
     }
 
     /// The closest surface a ray stops at: with alpha in the scene, a

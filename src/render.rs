@@ -149,7 +149,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // them and MIS to weigh their connections; traced for a few sample
     // indices at a time, which bounds their memory.
     let per_sample = (w * h / 16).clamp(256, PER_SAMPLE);
-    let connect = AREA && settings.mis && !ctx.lights.triangles.is_empty() && settings.max_depth >= 2 && settings.light_paths;
+    let connect = AREA && ctx.traces_light_paths(settings);
     let chunk = if connect { SAMPLES_PER_LIGHT_TRACE } else { samples.len().max(1) as u32 };
     let mut total = PassStats::default();
     // The pass's sums, added to the film once it is complete.
