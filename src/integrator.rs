@@ -21,6 +21,10 @@
 //! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
 //!   that light was already counted by L_dir.
+//! * With MIS, the first `CONNECT_MAX_DEPTH` + 1 vertices (but glossy
+//!   metals) also join the first vertex of a light subpath
+//!   (light_paths.rs): a third way to the same light, and a third density
+//!   in the two strategies' weights.
 //! * Russian roulette from depth `RR_START_DEPTH` on, surviving with
 //!   probability q = min(√(max channel of the throughput β / 0.2), 0.95):
 //!   a path is hardly ever ended while β ≥ 0.2; `max_depth` caps the number
@@ -566,7 +570,8 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     // z must see y1 from the side its light came from, and each lie off
     // the other's plane by more than their rounding: a point of a corner
     // can sit on the plane of the wall it meets, and a ray between the two
-    // would pass the wall's edge (light from outside a closed box).
+    // would pass the wall's edge (light from outside a closed box). The
+    // paths this drops from the connection's reach have no measure.
     let rounding = y.ng.abs().dot(y.p_error) + si.ng.abs().dot(si.p_error);
     let cos_y = -w.dot(y.ng);
     if !(cos_y > 0.0 && -to_y.dot(y.ng) > rounding && to_y.dot(si.ng).abs() > rounding) {
