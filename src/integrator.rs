@@ -504,6 +504,21 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previou
     l
 }
 
+/// Whether the shadow ray from `si` along `w` reaches `target`, a point of
+/// triangle `skip` (normal `n`, error bound `error`). The ray ends at the
+/// target moved off its surface by that bound and skips the target's own
+/// triangle, so it can run its full length and a wall 10 µm in front of a
+/// light still casts its shadow.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn unblocked(ctx: &Context, si: &SurfaceHit, w: Vec3, target: Vec3, error: Vec3, n: Vec3, skip: u32, rng: &mut Rng, rays: &mut RayCounts) -> bool {
+    let origin = si.spawn_origin(w);
+    let segment = offset_origin(target, error, n, -w) - origin;
+    let length = segment.length();
+    rays.shadow += 1;
+    length > 0.0 && !ctx.occluded(origin, segment / length, length, skip, rng)
+}
+
 /// One point on an emitting triangle and its shadow ray.
 #[allow(clippy::too_many_arguments)]
 fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, connect: f32, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
@@ -527,16 +542,8 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if le == Vec3::ZERO || f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let origin = si.spawn_origin(wi);
     let (_, light_error) = point_on_triangle(&light_tri.p, ls.b1, ls.b2);
-    let target = offset_origin(ls.point, light_error, ls.normal, -wi);
-    let segment = target - origin;
-    let length = segment.length();
-    rays.shadow += 1;
-    // The target sits off the emitter by its error bound; the emitter's own
-    // triangle is skipped, so the ray can run its full length and a wall
-    // 10 µm in front of the light still casts its shadow.
-    if !(length > 0.0) || ctx.occluded(origin, segment / length, length, ls.triangle, rng) {
+    if !unblocked(ctx, si, wi, ls.point, light_error, ls.normal, ls.triangle, rng, rays) {
         return Vec3::ZERO;
     }
     let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, connect, ls.triangle, wi.dot(si.ng) > 0.0)) } else { 1.0 };
@@ -602,12 +609,7 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     if !(contribution * weight).is_finite() || weight == 0.0 {
         return Vec3::ZERO;
     }
-    let origin = si.spawn_origin(w);
-    let target = offset_origin(y.p, y.p_error, y.ng, -w);
-    let segment = target - origin;
-    let length = segment.length();
-    rays.shadow += 1;
-    if !(length > 0.0) || ctx.occluded(origin, segment / length, length, y.triangle, rng) {
+    if !unblocked(ctx, si, w, y.p, y.p_error, y.ng, y.triangle, rng, rays) {
         return Vec3::ZERO;
     }
     contribution * weight

@@ -103,14 +103,6 @@ impl LightVertices {
     pub fn pick(&self, u: u32) -> Option<&LightVertex> {
         self.vertices.get(((u as u64 * self.traced as u64) >> 32) as usize)
     }
-
-    pub fn len(&self) -> usize {
-        self.vertices.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.vertices.is_empty()
-    }
 }
 
 /// The vertex a subpath's ray makes where it hits.

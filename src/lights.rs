@@ -26,9 +26,8 @@
 use crate::bsdf::luminance;
 use crate::integrator::{offset_origin, point_on_triangle};
 use crate::material::Material;
-use crate::sampling::{cosine_hemisphere, Frame};
+use crate::sampling::{cosine_hemisphere, uniform_triangle, Distribution1D, Frame};
 use crate::shading::{self, Barycentric};
-use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
 use crate::spherical_triangle::{self, SphericalTriangle};
