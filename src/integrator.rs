@@ -21,10 +21,10 @@
 //! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
 //!   that light was already counted by L_dir.
-//! * With MIS, the first `CONNECT_MAX_DEPTH` + 1 vertices (but glossy
-//!   metals) also join the first vertex of a light subpath
-//!   (light_paths.rs): a third way to the same light, and a third density
-//!   in the two strategies' weights.
+//! * With MIS, the first vertex z (but a glossy metal) also joins one
+//!   vertex y_k of a light subpath (light_paths.rs): a third way to the
+//!   same light, whose density each deeper vertex carries in `Chain` for
+//!   the two strategies' weights.
 //! * Russian roulette from depth `RR_START_DEPTH` on, surviving with
 //!   probability q = min(√(max channel of the throughput β / 0.2), 0.95):
 //!   a path is hardly ever ended while β ≥ 0.2; `max_depth` caps the number
@@ -66,13 +66,10 @@ use crate::shading::{self, Barycentric};
 use crate::environment;
 use glam::{Vec2, Vec3};
 
-/// The deepest camera vertex that connects to light vertices: deeper ones
-/// carry less of the pixel, and each connection costs a shadow ray.
-const CONNECT_MAX_DEPTH: u32 = 1;
 pub const RR_START_DEPTH: u32 = 3;
 /// The throughput under which Russian roulette starts ending paths.
-const RR_THRESHOLD: f32 = 0.2;
-const RR_MAX_SURVIVAL: f32 = 0.95;
+pub(crate) const RR_THRESHOLD: f32 = 0.2;
+pub(crate) const RR_MAX_SURVIVAL: f32 = 0.95;
 
 /// Everything a render reads: the scene and what is built from it.
 pub struct Context<'a> {
@@ -196,6 +193,7 @@ pub fn point_on_triangle(p: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
 }
 
 /// What the integrator needs of a ray's hit.
+#[derive(Clone)]
 pub struct SurfaceHit {
     pub p: Vec3,
     pub p_error: Vec3,
@@ -264,6 +262,15 @@ fn facing(mut surface: Surface, front_face: bool) -> Surface {
     surface
 }
 
+/// The BSDF at a hit for outgoing direction `wo` (local).
+#[inline]
+pub(crate) fn bsdf_at<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, wo: Vec3) -> B {
+    match &prepared[si.material as usize] {
+        Some(faces) => B::at(&faces[!si.front_face as usize], wo),
+        None => B::new(&si.surface, wo),
+    }
+}
+
 /// Each material's BSDF prepared for its front and back face
 /// (`Bsdf::prepare`), where its surface is the same at every point; None
 /// where textures or vertex colours make it vary.
@@ -281,7 +288,7 @@ pub fn prepare_materials<B: Bsdf>(scene: &Scene) -> Vec<Option<[B::Prepared; 2]>
 /// direction would pass through the surface it reflects from (light
 /// leaking through thin walls) or reflect off one it is meant to cross.
 #[inline]
-fn same_side(si: &SurfaceHit, wi: Vec3, local: Vec3) -> bool {
+pub(crate) fn same_side(si: &SurfaceHit, wi: Vec3, local: Vec3) -> bool {
     let g = wi.dot(si.ng);
     (g > 0.0 && local.z > 0.0) || (g < 0.0 && local.z < 0.0)
 }
@@ -319,12 +326,35 @@ pub fn power_heuristic3(a: f32, b: f32, c: f32) -> f32 {
     if sum > 0.0 && sum.is_finite() { a2 / sum } else if a > b.max(c) { 1.0 } else { 0.0 }
 }
 
-/// Whether a camera vertex at `depth` connects to a light vertex: the
-/// path it makes has two more scattering events, which `max_depth` must
-/// allow. Its MIS partners ask the same.
-#[inline]
-fn connects_at(depth: u32, max_depth: u32) -> bool {
-    depth + 2 <= max_depth && depth <= CONNECT_MAX_DEPTH
+/// A camera path's side of the connection's MIS weight (light_paths.rs)
+/// at vertex x_m (m ≥ 2) for light reached from it: the connection's
+/// density in light sampling's measure is
+///   p_y0 · |cos_m(wi)| · base · (m ≥ 3: pdf_rev(wi) · rev),
+/// `base` the product of the ratios of light-side to camera-side densities
+/// at x_2 … x_{m−2} over π·M and the camera's area density of x_m, `rev`
+/// that of x_{m−1} without the reverse pdf, pdf_rev the BSDF's at x_m from
+/// wi toward x_{m−1}: what the subpath would have sampled there.
+struct Chain<'a, B: Bsdf> {
+    prepared: &'a [Option<[B::Prepared; 2]>],
+    si: &'a SurfaceHit,
+    wo: Vec3,
+    /// 0 where no connection could make the path.
+    base: f32,
+    rev: Option<f32>,
+}
+
+impl<B: Bsdf> Chain<'_, B> {
+    /// base · pdf_rev(wi) · rev for a direction `wi` (local) from x_m.
+    #[inline]
+    fn toward(&self, wi: Vec3) -> f32 {
+        if self.base == 0.0 {
+            return 0.0;
+        }
+        match self.rev {
+            Some(rev) => self.base * rev * bsdf_at::<B>(self.prepared, self.si, wi).pdf(wi, self.wo),
+            None => self.base,
+        }
+    }
 }
 
 /// Whether a surface connects to light vertices: not a glossy metal,
@@ -337,14 +367,15 @@ fn connects_from(surface: &Surface) -> bool {
     surface.metallic < 0.5 || surface.roughness >= 0.5
 }
 
-/// q of light_paths.rs for a vertex reached from a camera vertex that
-/// connects: the subpath density p_y0 of the emitter, times `connect`
-/// (d²/(π·p_z) of that vertex), where the light and the previous vertex
-/// are on the same side of it (a connection reflects, never transmits).
+/// The connection's density (light_paths.rs) in light sampling's measure
+/// at a camera vertex: the subpath density p_y0 of the emitter, times
+/// `connect` (`Chain::toward`) and the cosine toward the light, where the
+/// light and the previous vertex are on the same side of it (a connection
+/// reflects, never transmits).
 #[inline]
-fn connection_density(ctx: &Context, connect: f32, emitter: u32, reflects: bool) -> f32 {
-    if connect > 0.0 && reflects {
-        ctx.lights.emission_density(&ctx.scene.materials[ctx.scene.triangles[emitter as usize].material as usize]) * connect
+fn connection_density(ctx: &Context, connect: f32, emitter: u32, cos_to_light: f32) -> f32 {
+    if connect > 0.0 && cos_to_light > 0.0 {
+        ctx.lights.emission_density(&ctx.scene.materials[ctx.scene.triangles[emitter as usize].material as usize]) * connect * cos_to_light
     } else {
         0.0
     }
@@ -355,7 +386,7 @@ fn connection_density(ctx: &Context, connect: f32, emitter: u32, reflects: bool)
 /// With no light at all it draws no random numbers, so a kernel that
 /// leaves light sampling out sees the same random sequence.
 #[allow(clippy::too_many_arguments)]
-fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, connect: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     if ctx.lights.is_empty() {
         return Vec3::ZERO;
     }
@@ -364,7 +395,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     match ctx.lights.sample(ctx.scene, si.p, u_pick, u) {
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
-        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, connect, &ls, rng, rays),
+        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, chain, &ls, rng, rays),
         Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, mis, &ctx.scene.punctual[index], probability, u, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
@@ -420,12 +451,16 @@ struct Previous {
     /// whether it came from a delta lobe (which light sampling cannot match).
     bsdf_pdf: f32,
     delta: bool,
-    /// d²/(π·p_z) of this vertex where the camera vertex z before it
-    /// connects to light vertices, else 0 (`connection_density`).
+    /// `Chain::toward` of the ray's direction here: the connection's
+    /// share of the light the ray reaches (`connection_density`), 0 where
+    /// no connection makes the path.
     connect: f32,
-    /// Whether this vertex connects: what a vertex reached from it
-    /// computes `connect` by.
-    connects: bool,
+    /// The product of light-side to camera-side density ratios a deeper
+    /// vertex's `Chain` starts from (1 at z, 0 where no connection can
+    /// make the paths through this vertex), and the camera's density per
+    /// unit area of this vertex.
+    chain: f32,
+    area_pdf: f32,
 }
 
 impl Previous {
@@ -521,7 +556,7 @@ fn unblocked(ctx: &Context, si: &SurfaceHit, w: Vec3, target: Vec3, error: Vec3,
 
 /// One point on an emitting triangle and its shadow ray.
 #[allow(clippy::too_many_arguments)]
-fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, connect: f32, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let to_light = ls.point - si.p;
     let dist2 = to_light.length_squared();
     if !(dist2 > 0.0) {
@@ -546,7 +581,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if !unblocked(ctx, si, wi, ls.point, light_error, ls.normal, ls.triangle, rng, rays) {
         return Vec3::ZERO;
     }
-    let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, connect, ls.triangle, wi.dot(si.ng) > 0.0)) } else { 1.0 };
+    let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, chain.toward(wi_local), ls.triangle, wi.dot(si.ng))) } else { 1.0 };
     le * f * (weight * wi_local.z.abs() / pdf)
 }
 
@@ -557,16 +592,16 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
     if le == Vec3::ZERO {
         return le;
     }
-    let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng) > 0.0);
+    let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng));
     le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, t * t, cos_light), q)
 }
 
 /// Light vertex `v`'s light, reaching camera vertex `si` (BSDF `bsdf`,
 /// outgoing direction `wo` in its frame) along one connection
-/// (light_paths.rs), MIS-weighted against the camera path's two ways to
-/// the same light.
+/// (light_paths.rs), `scale` times (the vertices it stands for),
+/// MIS-weighted against the camera path's two ways to the same light.
 #[allow(clippy::too_many_arguments)]
-fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, bsdf: &B, wo: Vec3, v: &LightVertex, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, bsdf: &B, wo: Vec3, v: &LightVertex, scale: f32, mis_scale: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let y = &v.hit;
     let to_y = y.p - si.p;
     let d2 = to_y.length_squared();
@@ -574,7 +609,7 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
         return Vec3::ZERO;
     }
     let w = to_y / d2.sqrt();
-    // z must see y1 from the side its light came from, and each lie off
+    // z must see y from the side its light came from, and each lie off
     // the other's plane by more than their rounding: a point of a corner
     // can sit on the plane of the wall it meets, and a ray between the two
     // would pass the wall's edge (light from outside a closed box). The
@@ -589,24 +624,32 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     if f_z == Vec3::ZERO || !(pdf_z > 0.0) {
         return Vec3::ZERO;
     }
-    // y1 as a camera path through z would shade it.
+    // y as a camera path through z would shade it.
     let frame = Frame::from_normal(shading_normal_for(v.ns, y.ng, -w));
-    let (wo_y, wi_y) = (frame.to_local(-w), frame.to_local(v.to_light));
+    let (wo_y, wi_y) = (frame.to_local(-w), frame.to_local(v.to_prev));
     if !(wi_y.z > 0.0 && wo_y.z > 0.0) {
         return Vec3::ZERO;
     }
-    let bsdf_y = match &prepared[y.material as usize] {
-        Some(faces) => B::at(&faces[!y.front_face as usize], wo_y),
-        None => B::new(&y.surface, wo_y),
-    };
-    let (f_y, pdf_y) = bsdf_y.evaluate(wo_y, wi_y);
+    let (f_y, pdf_y) = bsdf_at::<B>(prepared, y, wo_y).evaluate(wo_y, wi_y);
     if f_y == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let contribution = f_z * f_y * v.alpha * (wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_light.dot(y.ng));
-    let q = v.emission_density * d2 / (std::f32::consts::PI * pdf_z);
-    let weight = power_heuristic3(q, pdf_y, v.light_pdf);
-    if !(contribution * weight).is_finite() || weight == 0.0 {
+    let contribution = f_z * f_y * v.alpha * (scale * wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_prev.dot(y.ng));
+    // The densities of light sampling at y1 (s = 1) and of a BSDF sample
+    // there hitting y0 (s = 0) over this connection's: the ratio of z's
+    // making y to the subpath's, that of y's making y_{k−1} to y_{k−2}'s,
+    // and what the subpath knows beyond.
+    let to_z = pdf_z * cos_y / d2 / v.generated;
+    let at_y = pdf_y * v.back;
+    let (light, unidirectional) = if v.depth == 1 {
+        (to_z, to_z * at_y)
+    } else {
+        let light = to_z * at_y * v.prefix;
+        (light, light * v.to_unidirectional)
+    };
+    let (light, unidirectional) = (light * mis_scale, unidirectional * mis_scale);
+    let weight = 1.0 / (1.0 + light * light + unidirectional * unidirectional);
+    if !(contribution * weight).is_finite() || !(weight > 0.0) {
         return Vec3::ZERO;
     }
     if !unblocked(ctx, si, w, y.p, y.p_error, y.ng, y.triangle, rng, rays) {
@@ -632,7 +675,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
-    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, connects: false };
+    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0 };
+    let (mis_scale, max_vertex_depth) = light_vertices.map_or((1.0, 0), |v| (v.mis_scale, v.max_vertex_depth));
     rays.camera += 1;
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
@@ -666,21 +710,29 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             break;
         }
         let wo = si.frame.to_local(-d);
-        let bsdf = match &prepared[si.material as usize] {
-            Some(faces) => B::at(&faces[!si.front_face as usize], wo),
-            None => B::new(&si.surface, wo),
+        let bsdf: B = bsdf_at(prepared, &si, wo);
+        // The connection's side of this vertex's MIS weights: it could be
+        // a light vertex of a connection from z where every vertex after z
+        // could be (light_paths.rs).
+        let t2 = hit.t * hit.t;
+        let area_pdf = from.bsdf_pdf * -d.dot(si.ng) / t2;
+        let joins = from.chain > 0.0 && area_pdf > 0.0 && si.surface.transmission == 0.0 && depth <= max_vertex_depth;
+        let chain = Chain::<B> {
+            prepared,
+            si: &si,
+            wo,
+            base: if joins { from.chain / (std::f32::consts::PI * mis_scale * area_pdf) } else { 0.0 },
+            rev: (depth >= 2).then(|| from.ng.dot(d).abs() / (t2 * from.area_pdf)),
         };
-        // This vertex's d²/(π·p_z) where the vertex before it connects.
-        let connect = if from.connects && from.bsdf_pdf > 0.0 { hit.t * hit.t / (std::f32::consts::PI * from.bsdf_pdf) } else { 0.0 };
         if AREA || PUNCTUAL || ctx.lights.has_world() {
-            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, connect, rng, rays);
+            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, rng, rays);
         }
-        let connects = AREA && light_vertices.is_some() && connects_at(depth, max_depth) && connects_from(&si.surface);
+        let connects = AREA && depth == 0 && max_depth >= 2 && light_vertices.is_some() && connects_from(&si.surface);
         if connects {
             // A number of the sample's own stream: the Sobol sets stay
             // with the light sample and the BSDF's.
-            if let Some(v) = light_vertices.and_then(|vertices| vertices.pick(rng.next_u32())) {
-                l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, rng, rays);
+            if let Some((v, scale)) = light_vertices.and_then(|vertices| vertices.pick(rng.next_u32())) {
+                l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, scale, mis_scale, rng, rays);
             }
         }
         // Under the seed's rule a ray after the last vertex could only see
@@ -710,7 +762,20 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         o = si.spawn_origin(wi);
         d = wi;
-        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta, connect, connects: connects && !s.delta };
+        // What the next vertex's Chain starts from; a delta lobe here is
+        // one no subpath samples.
+        let (chain, connect) = if s.delta {
+            (0.0, 0.0)
+        } else if connects && si.surface.transmission == 0.0 {
+            (1.0, 0.0)
+        } else if joins {
+            let r = chain.toward(s.wi) / chain.base;
+            let next = from.chain * r;
+            if next.is_finite() { (next, chain.base * r) } else { (0.0, 0.0) }
+        } else {
+            (0.0, 0.0)
+        };
+        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf };
         rays.bounce += 1;
     }
     l

@@ -1,56 +1,89 @@
-//! Light vertices: the first surface point y1 of short light subpaths
-//! (an emitter point y0, a cosine-weighted ray from it, the surface it
-//! meets), which camera vertices z connect to with a shadow ray. This is
-//! bidirectional path tracing's s = 2 strategy, and the one that reaches
-//! light a surface sends on from where only the emitter sees it: the
-//! ceiling above a lamp that hangs just below it, which the room sees only
-//! through the slit, or the patch of a floor a sphere reflects a lamp onto.
-//! Camera paths find such a patch only by chance; light subpaths land on it
-//! in proportion to the light it gets.
+//! Light vertices: the surface points y1, y2, … of short light subpaths
+//! (an emitter point y0, a cosine-weighted ray from it, then BSDF samples
+//! with Russian roulette), which a camera path's first vertex z connects
+//! to with a shadow ray. These are bidirectional path tracing's s ≥ 2
+//! strategies with t = 2, and they reach light a surface sends on from
+//! where only the emitter sees it: the ceiling above a lamp that hangs
+//! just below it, whose light leaves the slit between the two only after
+//! bounces inside it, or the patch of a floor a sphere reflects a lamp
+//! onto. Camera paths find such light only by chance; light subpaths
+//! carry it out of the slit and land in proportion to the light.
 //!
 //! A connection's estimate, with the camera side's throughput β at z:
 //!
-//!   β · f_z · |cos_z| · |cos_y1|/d² · f_y1 · (|ns·wi| / |ng·wi|)_y1 · α
+//!   β · f_z · |cos_z| · |cos_yk|/d² · f_yk · (|ns·wi| / |ng·wi|)_yk · α_k
 //!
-//! where α = Le·π / p_y0 is the subpath's weight (Le·|cos_y0| over the
-//! density p_y0 of its start and p_ω = |cos_y0|/π of its direction; the
-//! ratio of cosines at y1 keeps the camera side's measure with shading
-//! normals), and f_y1 is evaluated with wo toward z, as a camera path
-//! through z and y1 would. It is weighted by the power heuristic against
-//! the two strategies of a camera path that reaches the same y1 from z:
-//! light sampling at y1 (pdf p_light) and a BSDF sample at y1 that hits
-//! y0 (p_bsdf). In y1's solid angle towards y0 the three densities are
-//! p_light, p_bsdf and q = p_y0 · d² / (π · p_z), p_z being z's BSDF
-//! density of the direction to y1 (integrator.rs carries the same q).
+//! where α_1 = Le·π / p_y0 (Le·|cos_y0| over the density p_y0 of the start
+//! and p_ω = |cos_y0|/π of its direction) and each bounce at y_j multiplies
+//! α by f(wo → y_{j+1}, wi → y_{j−1}) · |ns·wi| · |ng·wo| / (|ng·wi| · p),
+//! f as a camera path through y_j would evaluate it: the ratios of
+//! cosines keep the camera side's measure with shading normals.
 //!
-//! Subpaths are drawn per sample index, `PER_SAMPLE` of them, each camera
-//! vertex taking one at random: for one pixel sample that is one
-//! independent subpath, so each pixel's noise is what a subpath of its
-//! own would give, for a fraction of the rays.
+//! MIS. A path x0 (camera) z=x1 … xn (on an emitter) can be made by four
+//! kinds of strategy: a BSDF sample that hits the emitter (s = 0), light
+//! sampling at x_{n−1} (s = 1), and the connection of z to the light
+//! vertex x2 = y_{n−2} (s = n − 1). Camera vertices deeper than z do not
+//! connect, so the power heuristic has three terms. The ratio of the
+//! densities of strategies s − 1 and s is that of generating one vertex
+//! from the camera side rather than from the light side, both per unit
+//! area there, and the weights are products of such ratios:
+//! * a light vertex carries the ones its subpath knows (`prefix`,
+//!   `to_unidirectional`, `back`, `generated`), the connection adds the two
+//!   that depend on z;
+//! * a camera path carries the same product towards the light
+//!   (integrator.rs, `Chain`), which needs the reverse BSDF pdf at each
+//!   vertex after z.
+//! Glass and delta lobes end a subpath and a camera path's chain alike:
+//! the strategies through them stay the camera path's alone. A camera
+//! vertex makes one connection to one vertex drawn from all of a sample
+//! index's vertices, so a connection stands for 1/M of bidirectional path
+//! tracing's (M the mean vertices per subpath), and its density in the
+//! weights is divided by M on both sides (`mis_scale`, a constant per
+//! render from subpaths of their own, so that the weights do not depend
+//! on the vertices they weigh).
+//!
+//! Subpaths are drawn per sample index, `PER_SAMPLE` of them, each pixel
+//! sample taking one vertex: for one pixel sample that is an independent
+//! draw, so each pixel's noise is what a subpath of its own would give,
+//! for a fraction of the rays.
 
-use crate::accel::Hit;
-use crate::integrator::{Context, SurfaceHit};
+use crate::bsdf::Bsdf;
+use crate::integrator::{bsdf_at, same_side, shading_normal_for, Context, SurfaceHit, RR_MAX_SURVIVAL, RR_THRESHOLD};
 use crate::rng::Rng;
+use crate::sampling::Frame;
 use crate::traversal_bench::RayKind;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::f32::consts::PI;
 use std::ops::Range;
 
-/// A light subpath's first surface point.
+/// A light subpath's surface point y_k.
+#[derive(Clone)]
 pub struct LightVertex {
-    /// y1 as its ray met it: `ng` faces the emitter.
+    /// y_k as its ray met it: `ng` faces y_{k−1}.
     pub hit: SurfaceHit,
     /// The interpolated shading normal on `ng`'s side (zero where none):
     /// the frame is made once the viewer z is known.
     pub ns: Vec3,
-    /// Unit direction from y1 back to y0.
-    pub to_light: Vec3,
-    /// Le·π / p_y0, the subpath's throughput.
+    /// Unit direction from y_k back to y_{k−1}.
+    pub to_prev: Vec3,
+    /// The subpath's throughput up to y_k, Russian roulette included.
     pub alpha: Vec3,
-    /// Light sampling's density per steradian at y1 of reaching y0.
-    pub light_pdf: f32,
-    /// p_y0: `Lights::emission_density` of the emitter.
-    pub emission_density: f32,
+    /// k, its scattering events from the emitter.
+    pub depth: u32,
+    /// The density per unit area with which the subpath made y_k; for y1
+    /// that of the emitter, p_y0·|cos_y1|/(π·p_light), as light sampling
+    /// at y1 divides by p_light.
+    pub generated: f32,
+    /// Times the camera-side pdf at y_k toward y_{k−1} (solid angle), the
+    /// ratio of the densities of making y_{k−1} from y_k and from y_{k−2}.
+    pub back: f32,
+    /// The ratios the subpath knows between light sampling at y1 and the
+    /// connection at y_{k−1} (k ≥ 3; 1 below).
+    pub prefix: f32,
+    /// A BSDF sample at y1 hitting y0 against light sampling there
+    /// (k ≥ 2; for y1 it depends on z).
+    pub to_unidirectional: f32,
 }
 
 /// The light vertices of one sample index.
@@ -59,66 +92,155 @@ pub struct LightVertices {
     /// Subpaths traced, counting those that made no vertex (a pick of a
     /// punctual light, a ray that left the scene).
     traced: u32,
+    /// M, the mean vertices per subpath, which the weights divide the
+    /// connection's density by.
+    pub mis_scale: f32,
+    /// The deepest light vertex: the path a connection to it makes has
+    /// depth + 1 scattering events, which `max_depth` must allow.
+    pub max_vertex_depth: u32,
 }
 
 /// Light subpaths per sample index at most; fewer on small images, which
 /// have fewer camera vertices to share them.
 pub const PER_SAMPLE: u32 = 1024;
+/// Bounces before Russian roulette ends subpaths, as for camera paths.
+const RR_START_DEPTH: u32 = 2;
+/// Subpaths that estimate `mis_scale`.
+const SCALE_SUBPATHS: u32 = 512;
 
 impl LightVertices {
     /// One sample index's subpaths, from `count` starts.
-    pub fn trace(ctx: &Context, seed: u64, sample: u64, count: u32, rays: &mut u64) -> Self {
-        let mut vertices = Vec::with_capacity(count as usize);
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, sample: u64, count: u32, max_vertex_depth: u32, mis_scale: f32, rays: &mut u64) -> Self {
+        let mut vertices = Vec::with_capacity(2 * count as usize);
         for j in 0..count {
             // Numbers of their own, apart from the camera paths'.
             let mut rng = Rng::for_sample(seed ^ 0x6C69_6768_745F_7061, j as u64, sample);
-            let (u_pick, u_point) = rng.next_1d_2d();
-            let Some(start) = ctx.lights.sample_emission(ctx.scene, u_pick, u_point, rng.next_2d()) else { continue };
-            *rays += 1;
-            let Some(hit) = ctx.intersect(start.origin, start.dir, RayKind::Bounce, &mut rng) else { continue };
-            if let Some(v) = vertex(ctx, &start, &hit) {
-                vertices.push(v);
-            }
+            subpath::<B>(ctx, prepared, &mut rng, max_vertex_depth, &mut vertices, rays);
         }
-        LightVertices { vertices, traced: count }
+        LightVertices { vertices, traced: count, mis_scale, max_vertex_depth }
+    }
+
+    /// M for a render: the mean vertices per subpath, from subpaths of a
+    /// sample index no pixel uses, and the rays they took.
+    pub fn mis_scale<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, max_depth: u32) -> (f32, u64) {
+        let mut rays = 0;
+        let scale = Self::trace::<B>(ctx, prepared, seed ^ 0x4D49_535F_7363, u64::MAX, SCALE_SUBPATHS, max_depth.saturating_sub(1), 1.0, &mut rays);
+        ((scale.vertices.len() as f32 / SCALE_SUBPATHS as f32).max(1.0), rays)
     }
 
     /// Every sample index of `samples`' vertices, traced in parallel.
-    pub fn for_samples(ctx: &Context, seed: u64, samples: Range<u32>, count: u32) -> (Vec<Self>, u64) {
+    #[allow(clippy::too_many_arguments)]
+    pub fn for_samples<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, samples: Range<u32>, count: u32, max_depth: u32, mis_scale: f32) -> (Vec<Self>, u64) {
+        let max_vertex_depth = max_depth.saturating_sub(1);
         let traced: Vec<(Self, u64)> = samples
             .into_par_iter()
             .map(|s| {
                 let mut rays = 0;
-                (Self::trace(ctx, seed, s as u64, count, &mut rays), rays)
+                (Self::trace::<B>(ctx, prepared, seed, s as u64, count, max_vertex_depth, mis_scale, &mut rays), rays)
             })
             .collect();
         let rays = traced.iter().map(|t| t.1).sum();
         (traced.into_iter().map(|t| t.0).collect(), rays)
     }
 
-    /// One subpath's vertex, uniformly over those traced (`u` a uniform
-    /// 32-bit number): None for a subpath that made none, so that each
-    /// vertex stands for one subpath's worth of light.
+    /// One vertex, uniformly over all (`u` a uniform 32-bit number), and
+    /// the factor that makes it stand for all of its sample index's
+    /// subpaths: vertices / subpaths traced.
     #[inline]
-    pub fn pick(&self, u: u32) -> Option<&LightVertex> {
-        self.vertices.get(((u as u64 * self.traced as u64) >> 32) as usize)
+    pub fn pick(&self, u: u32) -> Option<(&LightVertex, f32)> {
+        let n = self.vertices.len();
+        let v = self.vertices.get(((u as u64 * n as u64) >> 32) as usize)?;
+        Some((v, n as f32 / self.traced as f32))
     }
 }
 
-/// The vertex a subpath's ray makes where it hits.
-fn vertex(ctx: &Context, start: &crate::lights::EmissionSample, hit: &Hit) -> Option<LightVertex> {
-    let (hit_point, ns) = SurfaceHit::with_normal(ctx.scene, hit, start.dir);
-    let to_light = -start.dir;
-    let cos_light = start.normal.dot(start.dir);
-    let dist2 = hit.t * hit.t;
-    let light_pdf = ctx.lights.pdf_emitter(ctx.scene, start.triangle, hit_point.p, dist2, cos_light);
-    let alpha = start.le * (std::f32::consts::PI / start.density);
-    (alpha.is_finite() && light_pdf.is_finite() && start.density > 0.0).then_some(LightVertex {
-        hit: hit_point,
+/// Traces one subpath, pushing its vertices.
+fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, out: &mut Vec<LightVertex>, rays: &mut u64) {
+    let (u_pick, u_point) = rng.next_1d_2d();
+    let Some(start) = ctx.lights.sample_emission(ctx.scene, u_pick, u_point, rng.next_2d()) else { return };
+    if max_vertex_depth == 0 || !(start.density > 0.0) {
+        return;
+    }
+    *rays += 1;
+    let Some(hit) = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng) else { return };
+    let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir);
+    let cos_in = -start.dir.dot(si.ng);
+    let light_pdf = ctx.lights.pdf_emitter(ctx.scene, start.triangle, si.p, hit.t * hit.t, start.normal.dot(start.dir));
+    let alpha = start.le * (PI / start.density);
+    if !(alpha.is_finite() && light_pdf > 0.0 && light_pdf.is_finite() && cos_in > 0.0) {
+        return;
+    }
+    let mut v = LightVertex {
+        hit: si,
         ns,
-        to_light,
+        to_prev: -start.dir,
         alpha,
-        light_pdf,
-        emission_density: start.density,
-    })
+        depth: 1,
+        generated: start.density * cos_in / (PI * light_pdf),
+        back: 1.0 / light_pdf,
+        prefix: 1.0,
+        to_unidirectional: 0.0,
+    };
+    let mut cos_in = cos_in;
+    let mut throughput = Vec3::ONE;
+    loop {
+        // Glass is left to camera paths (their chains stop there too).
+        if v.hit.surface.transmission > 0.0 {
+            return;
+        }
+        out.push(v.clone());
+        if v.depth >= max_vertex_depth {
+            return;
+        }
+        let frame = Frame::from_normal(shading_normal_for(v.ns, v.hit.ng, v.to_prev));
+        let wo = frame.to_local(v.to_prev);
+        if !(wo.z > 0.0) {
+            return;
+        }
+        let bsdf: B = bsdf_at(prepared, &v.hit, wo);
+        let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { return };
+        let w = frame.to_world(s.wi);
+        if s.delta || !(s.pdf > 0.0) || !same_side(&v.hit, w, s.wi) {
+            return;
+        }
+        // The vertex as a camera path through it sees it: wo toward the
+        // next vertex, wi toward the light.
+        let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, s.wi).evaluate(s.wi, wo);
+        let cos_out = w.dot(v.hit.ng).abs();
+        let factor = f * (wo.z * cos_out / (cos_in * s.pdf));
+        throughput *= factor;
+        let mut alpha = v.alpha * factor;
+        if v.depth >= RR_START_DEPTH {
+            let q = (throughput.max_element() / RR_THRESHOLD).sqrt().min(RR_MAX_SURVIVAL);
+            if !(rng.next_f32() < q) {
+                return;
+            }
+            throughput /= q;
+            alpha /= q;
+        }
+        *rays += 1;
+        let Some(hit) = ctx.intersect(v.hit.spawn_origin(w), w, RayKind::Bounce, rng) else { return };
+        let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, w);
+        let cos_next = -w.dot(si.ng);
+        let t2 = hit.t * hit.t;
+        let (prefix, to_unidirectional) = if v.depth == 1 { (1.0, pdf_camera * v.back) } else { (v.prefix * pdf_camera * v.back, v.to_unidirectional) };
+        let next = LightVertex {
+            hit: si,
+            ns,
+            to_prev: -w,
+            alpha,
+            depth: v.depth + 1,
+            generated: s.pdf * cos_next / t2,
+            back: cos_out / (t2 * v.generated),
+            prefix,
+            to_unidirectional,
+        };
+        let finite = [next.generated, next.back, next.prefix, next.to_unidirectional].iter().all(|x| x.is_finite() && *x > 0.0);
+        if !(finite && cos_next > 0.0 && alpha.is_finite()) {
+            return;
+        }
+        v = next;
+        cos_in = cos_next;
+    }
 }

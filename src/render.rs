@@ -152,6 +152,13 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let connect = AREA && ctx.traces_light_paths(settings);
     let chunk = if connect { SAMPLES_PER_LIGHT_TRACE } else { samples.len().max(1) as u32 };
     let mut total = PassStats::default();
+    let mis_scale = if connect {
+        let (scale, rays) = LightVertices::mis_scale::<B>(ctx, &prepared, settings.seed, settings.max_depth);
+        total.rays.bounce += rays;
+        scale
+    } else {
+        1.0
+    };
     // The pass's sums, added to the film once it is complete.
     let mut pass_sum = vec![Vec3::ZERO; film.sum.len()];
     let mut start = samples.start;
@@ -159,7 +166,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         let range = start..(start + chunk).min(samples.end);
         start = range.end;
         let light_vertices = if connect {
-            let (vertices, rays) = LightVertices::for_samples(ctx, settings.seed, range.clone(), per_sample);
+            let (vertices, rays) = LightVertices::for_samples::<B>(ctx, &prepared, settings.seed, range.clone(), per_sample, settings.max_depth, mis_scale);
             total.rays.bounce += rays;
             Some(vertices)
         } else {
