@@ -360,11 +360,12 @@ impl<B: Bsdf> Chain<'_, B> {
 /// Whether a surface connects to light vertices: not a glossy metal,
 /// whose lobe BSDF sampling follows better than a connection's random
 /// direction (on the benchmark's gold sphere, connecting from its
-/// roughness-0.3 gold had cost time and 4% of the error). The MIS weights
-/// of a path through it then leave the connection out.
+/// roughness-0.3 gold had cost time and 4% of the error), nor glass.
+/// A camera path's z is its first vertex that does, so the path decides
+/// which it is and the MIS weights of a path agree on it.
 #[inline]
 fn connects_from(surface: &Surface) -> bool {
-    surface.metallic < 0.5 || surface.roughness >= 0.5
+    (surface.metallic < 0.5 || surface.roughness >= 0.5) && surface.transmission == 0.0
 }
 
 /// The connection's density (light_paths.rs) in light sampling's measure
@@ -677,6 +678,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let (mut o, mut d) = (origin, dir);
     let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0 };
     let (mis_scale, max_vertex_depth) = light_vertices.map_or((1.0, 0), |v| (v.mis_scale, v.max_vertex_depth));
+    // The depth of the path's z, once it has one.
+    let mut z_depth = None;
     rays.camera += 1;
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
@@ -716,23 +719,27 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // could be (light_paths.rs).
         let t2 = hit.t * hit.t;
         let area_pdf = from.bsdf_pdf * -d.dot(si.ng) / t2;
-        let joins = from.chain > 0.0 && area_pdf > 0.0 && si.surface.transmission == 0.0 && depth <= max_vertex_depth;
+        let after_z = z_depth.map_or(0, |z| depth - z);
+        let joins = from.chain > 0.0 && area_pdf > 0.0 && si.surface.transmission == 0.0 && after_z <= max_vertex_depth;
         let chain = Chain::<B> {
             prepared,
             si: &si,
             wo,
             base: if joins { from.chain / (std::f32::consts::PI * mis_scale * area_pdf) } else { 0.0 },
-            rev: (depth >= 2).then(|| from.ng.dot(d).abs() / (t2 * from.area_pdf)),
+            rev: (after_z >= 2).then(|| from.ng.dot(d).abs() / (t2 * from.area_pdf)),
         };
         if AREA || PUNCTUAL || ctx.lights.has_world() {
             l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, rng, rays);
         }
-        let connects = AREA && depth == 0 && max_depth >= 2 && light_vertices.is_some() && connects_from(&si.surface);
+        let connects = AREA && z_depth.is_none() && depth + 2 <= max_depth && light_vertices.is_some() && connects_from(&si.surface);
         if connects {
+            z_depth = Some(depth);
             // A number of the sample's own stream: the Sobol sets stay
             // with the light sample and the BSDF's.
             if let Some((v, scale)) = light_vertices.and_then(|vertices| vertices.pick(rng.next_u32())) {
-                l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, scale, mis_scale, rng, rays);
+                if v.depth + depth < max_depth {
+                    l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, scale, mis_scale, rng, rays);
+                }
             }
         }
         // Under the seed's rule a ray after the last vertex could only see
@@ -766,7 +773,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // one no subpath samples.
         let (chain, connect) = if s.delta {
             (0.0, 0.0)
-        } else if connects && si.surface.transmission == 0.0 {
+        } else if connects {
             (1.0, 0.0)
         } else if joins {
             let r = chain.toward(s.wi) / chain.base;
