@@ -35,11 +35,12 @@
 //!   vertex after z.
 //! Glass and delta lobes end a subpath and a camera path's chain alike:
 //! the strategies through them stay the camera path's alone. A camera
-//! vertex makes one connection to one vertex drawn from all of a sample
-//! index's vertices, so a connection stands for 1/M of bidirectional path
-//! tracing's (M the mean vertices per subpath), and its density in the
-//! weights is divided by M on both sides (`mis_scale`, a constant per
-//! render from subpaths of their own, so that the weights do not depend
+//! vertex makes `CONNECTIONS` connections, each to one vertex drawn from
+//! all of a sample index's, so each stands for 1/M of bidirectional path
+//! tracing's connections (M the mean vertices per subpath) and together
+//! for `CONNECTIONS`/M of them; the weights scale the connection's
+//! density by that on both sides (`mis_scale`, a constant per render from
+//! subpaths of their own, so that the weights do not depend
 //! on the vertices they weigh).
 //!
 //! Subpaths are drawn per sample index, `PER_SAMPLE` of them, each pixel
@@ -48,7 +49,7 @@
 //! for a fraction of the rays.
 
 use crate::bsdf::Bsdf;
-use crate::integrator::{bsdf_at, same_side, shading_normal_for, Context, SurfaceHit, RR_MAX_SURVIVAL, RR_THRESHOLD};
+use crate::integrator::{bsdf_at, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL, RR_THRESHOLD};
 use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::traversal_bench::RayKind;
@@ -92,8 +93,8 @@ pub struct LightVertices {
     /// Subpaths traced, counting those that made no vertex (a pick of a
     /// punctual light, a ray that left the scene).
     traced: u32,
-    /// M, the mean vertices per subpath, which the weights divide the
-    /// connection's density by.
+    /// M over the connections a camera path makes: what the weights divide
+    /// the connection's density by.
     pub mis_scale: f32,
     /// The deepest light vertex: the path a connection to it makes has
     /// depth + 1 scattering events, which `max_depth` must allow.
@@ -121,12 +122,13 @@ impl LightVertices {
         LightVertices { vertices, traced: count, mis_scale, max_vertex_depth }
     }
 
-    /// M for a render: the mean vertices per subpath, from subpaths of a
-    /// sample index no pixel uses, and the rays they took.
+    /// M for a render: the mean vertices per subpath over the connections
+    /// a camera path makes (`CONNECTIONS`), from subpaths of a sample
+    /// index no pixel uses, and the rays they took.
     pub fn mis_scale<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, max_depth: u32) -> (f32, u64) {
         let mut rays = 0;
         let scale = Self::trace::<B>(ctx, prepared, seed ^ 0x4D49_535F_7363, u64::MAX, SCALE_SUBPATHS, max_depth.saturating_sub(1), 1.0, &mut rays);
-        ((scale.vertices.len() as f32 / SCALE_SUBPATHS as f32).max(1.0), rays)
+        ((scale.vertices.len() as f32 / SCALE_SUBPATHS as f32).max(1.0) / CONNECTIONS as f32, rays)
     }
 
     /// Every sample index of `samples`' vertices, traced in parallel.
