@@ -21,10 +21,10 @@
 //! * L_indir: a direction sampled from the BSDF, weighted by f·cosθ/pdf and
 //!   traced on. A BSDF-sampled ray that hits an emitter adds no emission:
 //!   that light was already counted by L_dir.
-//! * With MIS, the first vertex z (but a glossy metal) also joins one
-//!   vertex y_k of a light subpath (light_paths.rs): a third way to the
-//!   same light, whose density each deeper vertex carries in `Chain` for
-//!   the two strategies' weights.
+//! * With MIS, the path's first vertex z that is not a glossy metal or
+//!   glass also joins `CONNECTIONS` vertices y_k of light subpaths
+//!   (light_paths.rs): a third way to the same light, whose density each
+//!   deeper vertex carries in `Chain` for the two strategies' weights.
 //! * Russian roulette from depth `RR_START_DEPTH` on, surviving with
 //!   probability q = min(√(max channel of the throughput β / 0.2), 0.95):
 //!   a path is hardly ever ended while β ≥ 0.2; `max_depth` caps the number
@@ -52,7 +52,7 @@
 use crate::accel::{Accel, Hit};
 use crate::bsdf::Bsdf;
 use crate::features::{Features, Kernel};
-use crate::light_paths::LightVertex;
+use crate::light_paths::{carries_light_paths, LightVertex};
 pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
@@ -369,7 +369,7 @@ impl<B: Bsdf> Chain<'_, B> {
 /// which it is and the MIS weights of a path agree on it.
 #[inline]
 fn connects_from(surface: &Surface) -> bool {
-    (surface.metallic < 0.5 || surface.roughness >= 0.5) && surface.transmission == 0.0
+    (surface.metallic < 0.5 || surface.roughness >= 0.5) && carries_light_paths(surface)
 }
 
 /// The connection's density (light_paths.rs) in light sampling's measure
@@ -724,7 +724,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let t2 = hit.t * hit.t;
         let area_pdf = from.bsdf_pdf * -d.dot(si.ng) / t2;
         let after_z = z_depth.map_or(0, |z| depth - z);
-        let joins = from.chain > 0.0 && area_pdf > 0.0 && si.surface.transmission == 0.0 && after_z <= max_vertex_depth;
+        let joins = from.chain > 0.0 && area_pdf > 0.0 && carries_light_paths(&si.surface) && after_z <= max_vertex_depth;
         let chain = Chain::<B> {
             prepared,
             si: &si,

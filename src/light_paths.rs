@@ -1,8 +1,8 @@
 //! Light vertices: the surface points y1, y2, … of short light subpaths
 //! (an emitter point y0, a cosine-weighted ray from it, then BSDF samples
-//! with Russian roulette), which a camera path's first vertex z connects
-//! to with a shadow ray. These are bidirectional path tracing's s ≥ 2
-//! strategies with t = 2, and they reach light a surface sends on from
+//! with Russian roulette), which a camera path's vertex z (its first that
+//! is not a glossy metal or glass) connects to with shadow rays. These are
+//! bidirectional path tracing's s ≥ 2 strategies for z's t, and they reach light a surface sends on from
 //! where only the emitter sees it: the ceiling above a lamp that hangs
 //! just below it, whose light leaves the slit between the two only after
 //! bounces inside it, or the patch of a floor a sphere reflects a lamp
@@ -19,7 +19,8 @@
 //! f as a camera path through y_j would evaluate it: the ratios of
 //! cosines keep the camera side's measure with shading normals.
 //!
-//! MIS. A path x0 (camera) z=x1 … xn (on an emitter) can be made by four
+//! MIS. A path x0 (camera) z=x1 … xn (on an emitter; with z deeper the
+//! indices shift, and the vertices before z take no part) can be made by four
 //! kinds of strategy: a BSDF sample that hits the emitter (s = 0), light
 //! sampling at x_{n−1} (s = 1), and the connection of z to the light
 //! vertex x2 = y_{n−2} (s = n − 1). Camera vertices deeper than z do not
@@ -33,6 +34,7 @@
 //! * a camera path carries the same product towards the light
 //!   (integrator.rs, `Chain`), which needs the reverse BSDF pdf at each
 //!   vertex after z.
+//!
 //! Glass and delta lobes end a subpath and a camera path's chain alike:
 //! the strategies through them stay the camera path's alone. A camera
 //! vertex makes `CONNECTIONS` connections, each to one vertex drawn from
@@ -44,12 +46,13 @@
 //! on the vertices they weigh).
 //!
 //! Subpaths are drawn per sample index, `PER_SAMPLE` of them, each pixel
-//! sample taking one vertex: for one pixel sample that is an independent
-//! draw, so each pixel's noise is what a subpath of its own would give,
+//! sample taking `CONNECTIONS` vertices: for one pixel sample those are
+//! independent draws, so each pixel's noise is what a subpath of its own would give,
 //! for a fraction of the rays.
 
 use crate::bsdf::Bsdf;
 use crate::integrator::{bsdf_at, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL, RR_THRESHOLD};
+use crate::material::Surface;
 use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::traversal_bench::RayKind;
@@ -157,6 +160,15 @@ impl LightVertices {
     }
 }
 
+/// Whether a light subpath can have a vertex on a surface and go on from
+/// it: not on glass, whose paths stay the camera's alone. A camera path's
+/// MIS chain asks the same of its vertices, so the two sides agree on
+/// which paths a connection can make.
+#[inline]
+pub(crate) fn carries_light_paths(surface: &Surface) -> bool {
+    surface.transmission == 0.0
+}
+
 /// Traces one subpath, pushing its vertices.
 fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, out: &mut Vec<LightVertex>, rays: &mut u64) {
     let (u_pick, u_point) = rng.next_1d_2d();
@@ -167,7 +179,8 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
     *rays += 1;
     let Some(hit) = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng) else { return };
     let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir);
-    let cos_in = -start.dir.dot(si.ng);
+    let to_prev = -start.dir;
+    let cos_in = to_prev.dot(si.ng);
     let light_pdf = ctx.lights.pdf_emitter(ctx.scene, start.triangle, si.p, hit.t * hit.t, start.normal.dot(start.dir));
     let alpha = start.le * (PI / start.density);
     if !(alpha.is_finite() && light_pdf > 0.0 && light_pdf.is_finite() && cos_in > 0.0) {
@@ -176,7 +189,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
     let mut v = LightVertex {
         hit: si,
         ns,
-        to_prev: -start.dir,
+        to_prev,
         alpha,
         depth: 1,
         generated: start.density * cos_in / (PI * light_pdf),
@@ -184,11 +197,9 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         prefix: 1.0,
         to_unidirectional: 0.0,
     };
-    let mut cos_in = cos_in;
     let mut throughput = Vec3::ONE;
     loop {
-        // Glass is left to camera paths (their chains stop there too).
-        if v.hit.surface.transmission > 0.0 {
+        if !carries_light_paths(&v.hit.surface) {
             return;
         }
         out.push(v.clone());
@@ -209,6 +220,8 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         // The vertex as a camera path through it sees it: wo toward the
         // next vertex, wi toward the light.
         let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, s.wi).evaluate(s.wi, wo);
+        // ng faces y_{k−1}.
+        let cos_in = v.to_prev.dot(v.hit.ng);
         let cos_out = w.dot(v.hit.ng).abs();
         let factor = f * (wo.z * cos_out / (cos_in * s.pdf));
         throughput *= factor;
@@ -243,6 +256,5 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
             return;
         }
         v = next;
-        cos_in = cos_next;
     }
 }
