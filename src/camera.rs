@@ -62,7 +62,10 @@ impl Camera {
     /// The camera for an image of this size: what every primary ray shares,
     /// computed once a pass (a tangent per ray had been 1% of a render).
     pub fn lens(&self, width: u32, height: u32) -> Lens<'_> {
-        Lens { camera: self, tan_half: (0.5 * self.yfov).tan(), aspect: width as f32 / height as f32, width: width as f32, height: height as f32 }
+        let (tan_half, aspect) = ((0.5 * self.yfov).tan(), width as f32 / height as f32);
+        // A pixel's area on the image plane at distance 1.
+        let pixel_area = (2.0 * tan_half * aspect / width as f32) * (2.0 * tan_half / height as f32);
+        Lens { camera: self, tan_half, aspect, width: width as f32, height: height as f32, pixel_area, image_width: width }
     }
 }
 
@@ -73,6 +76,19 @@ pub struct Lens<'a> {
     aspect: f32,
     width: f32,
     height: f32,
+    pixel_area: f32,
+    image_width: u32,
+}
+
+/// A point as the camera sees it (`Lens::project`).
+pub struct Seen {
+    /// Row-major pixel index from the top-left.
+    pub pixel: u32,
+    /// Unit direction from the point to the camera, and its distance.
+    pub to_camera: Vec3,
+    pub distance: f32,
+    /// W of the direction (`Lens::importance`).
+    pub importance: f32,
 }
 
 impl Lens<'_> {
@@ -83,6 +99,40 @@ impl Lens<'_> {
         let sy = (1.0 - 2.0 * pixel.y / self.height) * self.tan_half;
         let dir = (c.forward + c.right * sx + c.up * sy).normalize();
         (c.position, dir)
+    }
+
+    pub fn position(&self) -> Vec3 {
+        self.camera.position
+    }
+
+    /// W(ω) = 1/(A_p cos³θ): the density per steradian with which a pixel's
+    /// uniformly jittered samples draw the direction ω of a camera ray in
+    /// it, A_p the pixel's area on the image plane at distance 1 (dω =
+    /// cos³θ dA there). A pixel's value is ∫ W L dω over its directions.
+    #[inline]
+    pub fn importance(&self, dir: Vec3) -> f32 {
+        let cos = dir.dot(self.camera.forward);
+        if cos > 0.0 { 1.0 / (self.pixel_area * cos * cos * cos) } else { 0.0 }
+    }
+
+    /// The pixel a point appears in, if any: the inverse of `ray`.
+    pub fn project(&self, p: Vec3) -> Option<Seen> {
+        let c = self.camera;
+        let v = p - c.position;
+        let distance = v.length();
+        let dir = v / distance;
+        let cos = dir.dot(c.forward);
+        if !(cos > 0.0 && distance.is_finite()) {
+            return None;
+        }
+        let x = (dir.dot(c.right) / (cos * self.tan_half * self.aspect) + 1.0) * 0.5 * self.width;
+        let y = (1.0 - dir.dot(c.up) / (cos * self.tan_half)) * 0.5 * self.height;
+        if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
+            return None;
+        }
+        // Rounding can put x or y on the far edge.
+        let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
+        Some(Seen { pixel: py * self.image_width + px, to_camera: -dir, distance, importance: self.importance(dir) })
     }
 }
 
@@ -101,6 +151,42 @@ mod tests {
         // Right of the image is +X.
         let (_, d) = cam.ray(Vec2::new(200.0, 50.0), 200, 100);
         assert!(d.x > 0.0 && (d.x / -d.z - 2.0).abs() < 1e-5);
+    }
+
+    /// `project` undoes `ray`, and W integrates to 1 over a pixel's
+    /// directions (a corner pixel, where cos θ is smallest).
+    #[test]
+    fn projection_inverts_rays_and_importance_is_normalised_per_pixel() {
+        let world = Mat4::from_rotation_y(0.4) * Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0));
+        let cam = Camera::from_world("c".into(), &world, 1.2, None).unwrap();
+        let lens = cam.lens(64, 48);
+        for (x, y) in [(0.5f32, 0.5f32), (10.25, 40.75), (63.9, 0.1), (32.0, 24.0)] {
+            let (o, d) = lens.ray(Vec2::new(x, y));
+            let seen = lens.project(o + d * 7.0).expect("in view");
+            assert_eq!(seen.pixel, y as u32 * 64 + x as u32, "({x}, {y})");
+            assert!((seen.to_camera + d).length() < 1e-5 && (seen.distance - 7.0).abs() < 1e-4);
+        }
+        assert!(lens.project(cam.position - cam.forward).is_none());
+        // ∫ W dω over the directions `project` puts in corner pixel (0, 0),
+        // by Monte Carlo over a cone around it of known solid angle.
+        let (_, axis) = lens.ray(Vec2::new(0.5, 0.5));
+        let frame = crate::sampling::Frame::from_normal(axis);
+        let (cos_max, n) = (0.03f32.cos(), 400_000);
+        let mut rng = crate::rng::Rng::new(7, 0);
+        let mut sum = 0.0f64;
+        for _ in 0..n {
+            let (u, v) = (rng.next_f32(), rng.next_f32());
+            let cos = 1.0 - u * (1.0 - cos_max);
+            let sin = (1.0 - cos * cos).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * v;
+            let d = frame.to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), cos));
+            if lens.project(cam.position + d).is_some_and(|s| s.pixel == 0) {
+                sum += lens.importance(d) as f64;
+            }
+        }
+        let integral = sum / n as f64 * 2.0 * std::f64::consts::PI * (1.0 - cos_max as f64);
+        // The estimate's standard error is about 0.3%.
+        assert!((integral - 1.0).abs() < 0.015, "{integral}");
     }
 
     #[test]

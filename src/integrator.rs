@@ -135,7 +135,7 @@ impl<'a> Context<'a> {
 
     /// Whether a shadow ray is blocked, not counting triangle `skip`.
     #[inline]
-    fn occluded(&self, o: Vec3, d: Vec3, tmax: f32, skip: u32, rng: &mut Rng) -> bool {
+    pub(crate) fn occluded(&self, o: Vec3, d: Vec3, tmax: f32, skip: u32, rng: &mut Rng) -> bool {
         if let Some(log) = &self.ray_log {
             log.push(TracedRay { kind: RayKind::Shadow, origin: o, dir: d, tmax, skip });
         }
@@ -337,7 +337,8 @@ pub fn power_heuristic3(a: f32, b: f32, c: f32) -> f32 {
 /// `base` the product of the ratios of light-side to camera-side densities
 /// at x_2 … x_{m−2} over π·M and the camera's area density of x_m, `rev`
 /// that of x_{m−1} without the reverse pdf, pdf_rev the BSDF's at x_m from
-/// wi toward x_{m−1}: what the subpath would have sampled there.
+/// wi toward x_{m−1}: what the subpath would have sampled there. Where z
+/// is x1, light tracing (light_tracing.rs) makes the same paths too.
 struct Chain<'a, B: Bsdf> {
     prepared: &'a [Option<[B::Prepared; 2]>],
     si: &'a SurfaceHit,
@@ -345,19 +346,50 @@ struct Chain<'a, B: Bsdf> {
     /// 0 where no connection could make the path.
     base: f32,
     rev: Option<f32>,
+    tracing: Tracing,
+}
+
+/// Light tracing's density over the connection's at a camera vertex, for
+/// a path whose z is x1: it makes x1 from x2 as well, with density
+/// p_L(x1) = pdf_rev_x2 · |cos_x1|/d² per unit area, n_T times, where the
+/// connection has the camera's p_cam(x1) and its 1/M.
+#[derive(Clone, Copy)]
+enum Tracing {
+    /// Not a strategy for the paths through here, nor at x1: light that
+    /// reaches x1 straight from an emitter is light sampling's to find.
+    Off,
+    /// At x2: n_T M |cos_x1|/(d² p_cam(x1)), times pdf_rev(wi).
+    Rev(f32),
+    /// Deeper: the ratio, fixed by the direction x2 sampled.
+    Ratio(f32),
 }
 
 impl<B: Bsdf> Chain<'_, B> {
-    /// base · pdf_rev(wi) · rev for a direction `wi` (local) from x_m.
+    /// The connection's and light tracing's densities over p_y0·|cos|
+    /// toward a direction `wi` (local) from x_m, and light tracing's
+    /// ratio for the vertices after x_m when wi is the direction taken.
+    #[inline]
+    fn parts(&self, wi: Vec3) -> (f32, f32, f32) {
+        if self.base == 0.0 {
+            return (0.0, 0.0, 0.0);
+        }
+        let needs_pdf = self.rev.is_some() || matches!(self.tracing, Tracing::Rev(_));
+        let pdf_rev = if needs_pdf { bsdf_at::<B>(self.prepared, self.si, wi).pdf(wi, self.wo) } else { 1.0 };
+        let c = self.base * self.rev.map_or(1.0, |rev| rev * pdf_rev);
+        let ratio = match self.tracing {
+            Tracing::Rev(k) => k * pdf_rev,
+            Tracing::Ratio(k) => k,
+            Tracing::Off => 0.0,
+        };
+        (c, c * ratio, ratio)
+    }
+
+    /// Both strategies' densities as one for the power heuristic, whose
+    /// terms are squares: √(c² + t²).
     #[inline]
     fn toward(&self, wi: Vec3) -> f32 {
-        if self.base == 0.0 {
-            return 0.0;
-        }
-        match self.rev {
-            Some(rev) => self.base * rev * bsdf_at::<B>(self.prepared, self.si, wi).pdf(wi, self.wo),
-            None => self.base,
-        }
+        let (c, t, _) = self.parts(wi);
+        if t == 0.0 { c } else { (c * c + t * t).sqrt() }
     }
 }
 
@@ -368,7 +400,7 @@ impl<B: Bsdf> Chain<'_, B> {
 /// A camera path's z is its first vertex that does, so the path decides
 /// which it is and the MIS weights of a path agree on it.
 #[inline]
-fn connects_from(surface: &Surface) -> bool {
+pub(crate) fn connects_from(surface: &Surface) -> bool {
     (surface.metallic < 0.5 || surface.roughness >= 0.5) && carries_light_paths(surface)
 }
 
@@ -466,6 +498,9 @@ struct Previous {
     /// unit area of this vertex.
     chain: f32,
     area_pdf: f32,
+    /// What the next vertex's `Tracing` is made from: at x1 (z),
+    /// n_T M / p_cam(x1); after x2, the ratio; 0 where it has no part.
+    tracing: f32,
 }
 
 impl Previous {
@@ -604,9 +639,11 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
 /// Light vertex `v`'s light, reaching camera vertex `si` (BSDF `bsdf`,
 /// outgoing direction `wo` in its frame) along one connection
 /// (light_paths.rs), `scale` times (the vertices it stands for),
-/// MIS-weighted against the camera path's two ways to the same light.
+/// MIS-weighted against the camera path's two ways to the same light and,
+/// with `tracing` (n_T M / p_cam(z) where z is x1 and light tracing can
+/// make the path, else 0), against light tracing's.
 #[allow(clippy::too_many_arguments)]
-fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, bsdf: &B, wo: Vec3, v: &LightVertex, scale: f32, mis_scale: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, bsdf: &B, wo: Vec3, v: &LightVertex, scale: f32, mis_scale: f32, tracing: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let y = &v.hit;
     let to_y = y.p - si.p;
     let d2 = to_y.length_squared();
@@ -639,6 +676,9 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     if f_y == Vec3::ZERO {
         return Vec3::ZERO;
     }
+    // Light tracing makes z from y as the subpath would go on: the pdf
+    // at y of the direction to z, arriving from y_{k−1}.
+    let traced = if tracing > 0.0 { tracing * bsdf_at::<B>(prepared, y, wi_y).pdf(wi_y, wo_y) * wi_z_geometric(si, w) / d2 } else { 0.0 };
     let contribution = f_z * f_y * v.alpha * (scale * wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_prev.dot(y.ng));
     // The densities of light sampling at y1 (s = 1) and of a BSDF sample
     // there hitting y0 (s = 0) over this connection's: the ratio of z's
@@ -653,7 +693,7 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
         (light, light * v.to_unidirectional)
     };
     let (light, unidirectional) = (light * mis_scale, unidirectional * mis_scale);
-    let weight = 1.0 / (1.0 + light * light + unidirectional * unidirectional);
+    let weight = 1.0 / (1.0 + light * light + unidirectional * unidirectional + traced * traced);
     if !(contribution * weight).is_finite() || !(weight > 0.0) {
         return Vec3::ZERO;
     }
@@ -661,6 +701,12 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
         return Vec3::ZERO;
     }
     contribution * weight
+}
+
+/// |cos| at camera vertex z of the direction w, by its geometric normal.
+#[inline]
+fn wi_z_geometric(si: &SurfaceHit, w: Vec3) -> f32 {
+    w.dot(si.ng).abs()
 }
 
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
@@ -672,6 +718,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     light_vertices: Option<&LightVertices>,
     origin: Vec3,
     dir: Vec3,
+    importance: f32,
     settings: &RenderSettings,
     rng: &mut Rng,
     rays: &mut RayCounts,
@@ -680,8 +727,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
-    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0 };
-    let (mis_scale, max_vertex_depth) = light_vertices.map_or((1.0, 0), |v| (v.mis_scale, v.max_vertex_depth));
+    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0 };
+    let (mis_scale, max_vertex_depth, subpaths_traced) = light_vertices.map_or((1.0, 0, 0.0), |v| (v.mis_scale, v.max_vertex_depth, v.tracing));
+    // n_T M / p_cam(x1) where light tracing (light_tracing.rs) makes the
+    // paths through x1: z is x1, which needs x1 to connect.
+    let mut tracing_over = 0.0;
     // The depth of the path's z, once it has one.
     let mut z_depth = None;
     rays.camera += 1;
@@ -725,17 +775,31 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let area_pdf = from.bsdf_pdf * -d.dot(si.ng) / t2;
         let after_z = z_depth.map_or(0, |z| depth - z);
         let joins = from.chain > 0.0 && area_pdf > 0.0 && carries_light_paths(&si.surface) && after_z <= max_vertex_depth;
+        let connects = AREA && z_depth.is_none() && depth + 2 <= max_depth && light_vertices.is_some() && connects_from(&si.surface);
+        if depth == 0 && connects && subpaths_traced > 0.0 {
+            let p_camera = importance * d.dot(si.ng).abs() / t2;
+            tracing_over = if p_camera > 0.0 && p_camera.is_finite() { subpaths_traced * mis_scale / p_camera } else { 0.0 };
+        }
+        // Light tracing makes paths whose x1 … x_{depth+1} are a subpath's
+        // vertices, as deep as they go.
+        let traced = tracing_over > 0.0 && depth + 2 <= max_depth;
+        let tracing = match depth {
+            _ if !traced => Tracing::Off,
+            0 => Tracing::Off,
+            1 => Tracing::Rev(from.tracing * from.ng.dot(d).abs() / t2),
+            _ => Tracing::Ratio(from.tracing),
+        };
         let chain = Chain::<B> {
             prepared,
             si: &si,
             wo,
             base: if joins { from.chain / (std::f32::consts::PI * mis_scale * area_pdf) } else { 0.0 },
             rev: (after_z >= 2).then(|| from.ng.dot(d).abs() / (t2 * from.area_pdf)),
+            tracing,
         };
         if AREA || PUNCTUAL || ctx.lights.has_world() {
             l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, rng, rays);
         }
-        let connects = AREA && z_depth.is_none() && depth + 2 <= max_depth && light_vertices.is_some() && connects_from(&si.surface);
         if connects {
             z_depth = Some(depth);
             // A number of the sample's own stream: the Sobol sets stay
@@ -743,7 +807,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             for _ in 0..CONNECTIONS {
                 if let Some((v, scale)) = light_vertices.and_then(|vertices| vertices.pick(rng.next_u32())) {
                     if v.depth + depth < max_depth {
-                        l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, scale / CONNECTIONS as f32, mis_scale, rng, rays);
+                        let tracing = if v.depth + 2 <= max_depth { tracing_over } else { 0.0 };
+                        l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, scale / CONNECTIONS as f32, mis_scale, tracing, rng, rays);
                     }
                 }
             }
@@ -777,18 +842,18 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         d = wi;
         // What the next vertex's Chain starts from; a delta lobe here is
         // one no subpath samples.
-        let (chain, connect) = if s.delta {
-            (0.0, 0.0)
+        let (chain, connect, tracing) = if s.delta {
+            (0.0, 0.0, 0.0)
         } else if connects {
-            (1.0, 0.0)
+            (1.0, 0.0, if traced { tracing_over } else { 0.0 })
         } else if joins {
-            let r = chain.toward(s.wi) / chain.base;
-            let next = from.chain * r;
-            if next.is_finite() { (next, chain.base * r) } else { (0.0, 0.0) }
+            let (c, _, ratio) = chain.parts(s.wi);
+            let next = from.chain * c / chain.base;
+            if next.is_finite() { (next, chain.toward(s.wi), ratio) } else { (0.0, 0.0, 0.0) }
         } else {
-            (0.0, 0.0)
+            (0.0, 0.0, 0.0)
         };
-        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf };
+        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing };
         rays.bounce += 1;
     }
     l

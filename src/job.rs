@@ -187,6 +187,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         features: options.features.unwrap_or_default(),
         sampler: options.sampler.unwrap_or_default(),
         light_paths: options.light_paths.unwrap_or(true),
+        light_tracing: options.light_paths.unwrap_or(true),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

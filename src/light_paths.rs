@@ -51,7 +51,8 @@
 //! for a fraction of the rays.
 
 use crate::bsdf::Bsdf;
-use crate::integrator::{bsdf_at, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL, RR_THRESHOLD};
+use crate::light_tracing::{LightTracing, Splat};
+use crate::integrator::{bsdf_at, RayCounts, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL, RR_THRESHOLD};
 use crate::material::Surface;
 use crate::rng::Rng;
 use crate::sampling::Frame;
@@ -102,6 +103,9 @@ pub struct LightVertices {
     /// The deepest light vertex: the path a connection to it makes has
     /// depth + 1 scattering events, which `max_depth` must allow.
     pub max_vertex_depth: u32,
+    /// n_T, the subpaths per sample index that reach the camera
+    /// (light_tracing.rs), which the camera side's weights count; 0 without.
+    pub tracing: f32,
 }
 
 /// Light subpaths per sample index at most; fewer on small images, which
@@ -112,17 +116,19 @@ const RR_START_DEPTH: u32 = 2;
 /// Subpaths that estimate `mis_scale`.
 const SCALE_SUBPATHS: u32 = 512;
 
+/// Subpaths a parallel task traces: sample indices are few (one for a
+/// 1-spp render), their subpaths many.
+const BLOCK: u32 = 1024;
+
 impl LightVertices {
     /// One sample index's subpaths, from `count` starts.
     #[allow(clippy::too_many_arguments)]
     pub fn trace<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, sample: u64, count: u32, max_vertex_depth: u32, mis_scale: f32, rays: &mut u64) -> Self {
         let mut vertices = Vec::with_capacity(2 * count as usize);
         for j in 0..count {
-            // Numbers of their own, apart from the camera paths'.
-            let mut rng = Rng::for_sample(seed ^ 0x6C69_6768_745F_7061, j as u64, sample);
-            subpath::<B>(ctx, prepared, &mut rng, max_vertex_depth, &mut vertices, rays);
+            subpath::<B>(ctx, prepared, &mut subpath_rng(seed, j, sample), max_vertex_depth, rays, &mut |v, _, _| vertices.push(v.clone()));
         }
-        LightVertices { vertices, traced: count, mis_scale, max_vertex_depth }
+        LightVertices { vertices, traced: count, mis_scale, max_vertex_depth, tracing: 0.0 }
     }
 
     /// M for a render: the mean vertices per subpath over the connections
@@ -134,19 +140,54 @@ impl LightVertices {
         ((scale.vertices.len() as f32 / SCALE_SUBPATHS as f32).max(1.0) / CONNECTIONS as f32, rays)
     }
 
-    /// Every sample index of `samples`' vertices, traced in parallel.
+    /// Every sample index of `samples`' vertices, from `count` subpaths
+    /// each, traced in parallel; with `tracing`, each sample index traces
+    /// its n_T subpaths (the first `count` of them also keep their
+    /// vertices) and their vertices seen by the camera (light_tracing.rs)
+    /// are returned too, in an order fixed by the samples alone.
     #[allow(clippy::too_many_arguments)]
-    pub fn for_samples<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, samples: Range<u32>, count: u32, max_depth: u32, mis_scale: f32) -> (Vec<Self>, u64) {
+    pub fn for_samples<B: Bsdf>(
+        ctx: &Context,
+        prepared: &[Option<[B::Prepared; 2]>],
+        tracing: Option<&LightTracing>,
+        seed: u64,
+        samples: Range<u32>,
+        count: u32,
+        max_depth: u32,
+        mis_scale: f32,
+    ) -> (Vec<Self>, Vec<Splat>, RayCounts) {
         let max_vertex_depth = max_depth.saturating_sub(1);
-        let traced: Vec<(Self, u64)> = samples
+        let subpaths = tracing.map_or(count, |t| count.max(t.subpaths as u32));
+        let tasks: Vec<(u32, u32)> = samples.clone().flat_map(|s| (0..subpaths.div_ceil(BLOCK)).map(move |b| (s, b * BLOCK))).collect();
+        let traced: Vec<(Vec<LightVertex>, Vec<Splat>, RayCounts)> = tasks
             .into_par_iter()
-            .map(|s| {
-                let mut rays = 0;
-                (Self::trace::<B>(ctx, prepared, seed, s as u64, count, max_vertex_depth, mis_scale, &mut rays), rays)
+            .map(|(s, j0)| {
+                let (mut vertices, mut splats, mut rays) = (Vec::new(), Vec::new(), RayCounts::default());
+                for j in j0..(j0 + BLOCK).min(subpaths) {
+                    let mut rng = subpath_rng(seed, j, s as u64);
+                    subpath::<B>(ctx, prepared, &mut rng, max_vertex_depth, &mut rays.bounce, &mut |v, rng, _| {
+                        if j < count {
+                            vertices.push(v.clone());
+                        }
+                        if let Some(splat) = tracing.filter(|t| j < t.subpaths as u32).and_then(|t| t.splat::<B>(ctx, prepared, v, rng, &mut rays.shadow)) {
+                            splats.push(splat);
+                        }
+                    });
+                }
+                (vertices, splats, rays)
             })
             .collect();
-        let rays = traced.iter().map(|t| t.1).sum();
-        (traced.into_iter().map(|t| t.0).collect(), rays)
+        let mut out: Vec<Self> = samples
+            .map(|_| LightVertices { vertices: Vec::new(), traced: count, mis_scale, max_vertex_depth, tracing: tracing.map_or(0.0, |t| t.subpaths) })
+            .collect();
+        let (mut splats, mut rays) = (Vec::new(), RayCounts::default());
+        let blocks = subpaths.div_ceil(BLOCK).max(1) as usize;
+        for (i, (vertices, s, r)) in traced.into_iter().enumerate() {
+            out[i / blocks].vertices.extend(vertices);
+            splats.extend(s);
+            rays.add(&r);
+        }
+        (out, splats, rays)
     }
 
     /// One vertex, uniformly over all (`u` a uniform 32-bit number), and
@@ -169,8 +210,14 @@ pub(crate) fn carries_light_paths(surface: &Surface) -> bool {
     surface.transmission == 0.0
 }
 
-/// Traces one subpath, pushing its vertices.
-fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, out: &mut Vec<LightVertex>, rays: &mut u64) {
+/// Numbers of their own for subpath j of a sample index, apart from the
+/// camera paths'.
+fn subpath_rng(seed: u64, j: u32, sample: u64) -> Rng {
+    Rng::for_sample(seed ^ 0x6C69_6768_745F_7061, j as u64, sample)
+}
+
+/// Traces one subpath, handing each vertex to `vertex` as it is made.
+fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, rays: &mut u64, vertex: &mut impl FnMut(&LightVertex, &mut Rng, &mut u64)) {
     let (u_pick, u_point) = rng.next_1d_2d();
     let Some(start) = ctx.lights.sample_emission(ctx.scene, u_pick, u_point, rng.next_2d()) else { return };
     if max_vertex_depth == 0 || !(start.density > 0.0) {
@@ -202,7 +249,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         if !carries_light_paths(&v.hit.surface) {
             return;
         }
-        out.push(v.clone());
+        vertex(&v, rng, rays);
         if v.depth >= max_vertex_depth {
             return;
         }
