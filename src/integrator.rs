@@ -365,13 +365,13 @@ enum Tracing {
 }
 
 impl<B: Bsdf> Chain<'_, B> {
-    /// The connection's and light tracing's densities over p_y0·|cos|
-    /// toward a direction `wi` (local) from x_m, and light tracing's
-    /// ratio for the vertices after x_m when wi is the direction taken.
+    /// The connection's density over p_y0·|cos| toward a direction `wi`
+    /// (local) from x_m, and light tracing's over the connection's, which
+    /// the vertices after x_m keep when wi is the direction taken.
     #[inline]
-    fn parts(&self, wi: Vec3) -> (f32, f32, f32) {
+    fn parts(&self, wi: Vec3) -> (f32, f32) {
         if self.base == 0.0 {
-            return (0.0, 0.0, 0.0);
+            return (0.0, 0.0);
         }
         let needs_pdf = self.rev.is_some() || matches!(self.tracing, Tracing::Rev(_));
         let pdf_rev = if needs_pdf { bsdf_at::<B>(self.prepared, self.si, wi).pdf(wi, self.wo) } else { 1.0 };
@@ -381,15 +381,15 @@ impl<B: Bsdf> Chain<'_, B> {
             Tracing::Ratio(k) => k,
             Tracing::Off => 0.0,
         };
-        (c, c * ratio, ratio)
+        (c, ratio)
     }
 
     /// Both strategies' densities as one for the power heuristic, whose
-    /// terms are squares: √(c² + t²).
+    /// terms are squares: √(c² + (c·ratio)²).
     #[inline]
     fn toward(&self, wi: Vec3) -> f32 {
-        let (c, t, _) = self.parts(wi);
-        if t == 0.0 { c } else { (c * c + t * t).sqrt() }
+        let (c, ratio) = self.parts(wi);
+        c * (1.0 + ratio * ratio).sqrt()
     }
 }
 
@@ -678,7 +678,7 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     }
     // Light tracing makes z from y as the subpath would go on: the pdf
     // at y of the direction to z, arriving from y_{k−1}.
-    let traced = if tracing > 0.0 { tracing * bsdf_at::<B>(prepared, y, wi_y).pdf(wi_y, wo_y) * wi_z_geometric(si, w) / d2 } else { 0.0 };
+    let traced = if tracing > 0.0 { tracing * bsdf_at::<B>(prepared, y, wi_y).pdf(wi_y, wo_y) * w.dot(si.ng).abs() / d2 } else { 0.0 };
     let contribution = f_z * f_y * v.alpha * (scale * wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_prev.dot(y.ng));
     // The densities of light sampling at y1 (s = 1) and of a BSDF sample
     // there hitting y0 (s = 0) over this connection's: the ratio of z's
@@ -701,12 +701,6 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
         return Vec3::ZERO;
     }
     contribution * weight
-}
-
-/// |cos| at camera vertex z of the direction w, by its geometric normal.
-#[inline]
-fn wi_z_geometric(si: &SurfaceHit, w: Vec3) -> f32 {
-    w.dot(si.ng).abs()
 }
 
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
@@ -784,10 +778,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // vertices, as deep as they go.
         let traced = tracing_over > 0.0 && depth + 2 <= max_depth;
         let tracing = match depth {
-            _ if !traced => Tracing::Off,
-            0 => Tracing::Off,
-            1 => Tracing::Rev(from.tracing * from.ng.dot(d).abs() / t2),
-            _ => Tracing::Ratio(from.tracing),
+            1 if traced => Tracing::Rev(from.tracing * from.ng.dot(d).abs() / t2),
+            2.. if traced => Tracing::Ratio(from.tracing),
+            _ => Tracing::Off,
         };
         let chain = Chain::<B> {
             prepared,
@@ -845,11 +838,13 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let (chain, connect, tracing) = if s.delta {
             (0.0, 0.0, 0.0)
         } else if connects {
-            (1.0, 0.0, if traced { tracing_over } else { 0.0 })
+            // Nonzero only where z is x1, the one vertex light tracing
+            // counts from.
+            (1.0, 0.0, tracing_over)
         } else if joins {
-            let (c, _, ratio) = chain.parts(s.wi);
+            let (c, ratio) = chain.parts(s.wi);
             let next = from.chain * c / chain.base;
-            if next.is_finite() { (next, chain.toward(s.wi), ratio) } else { (0.0, 0.0, 0.0) }
+            if next.is_finite() { (next, c * (1.0 + ratio * ratio).sqrt(), ratio) } else { (0.0, 0.0, 0.0) }
         } else {
             (0.0, 0.0, 0.0)
         };

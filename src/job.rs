@@ -176,6 +176,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         None if time.is_some() => 0,
         None => DEFAULT_SAMPLES,
     };
+    // `--light-paths` turns the connections and light tracing on and off
+    // together.
+    let light_paths = options.light_paths.unwrap_or(true);
     let settings = RenderSettings {
         width,
         height,
@@ -186,8 +189,8 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         bsdf: options.bsdf.unwrap_or_default(),
         features: options.features.unwrap_or_default(),
         sampler: options.sampler.unwrap_or_default(),
-        light_paths: options.light_paths.unwrap_or(true),
-        light_tracing: options.light_paths.unwrap_or(true),
+        light_paths,
+        light_tracing: light_paths,
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

@@ -40,7 +40,7 @@ pub struct Splat {
 
 /// What every splat of a render shares.
 pub struct LightTracing<'a> {
-    pub lens: Lens<'a>,
+    pub lens: &'a Lens<'a>,
     /// n_T: subpaths per sample index that reach the camera.
     pub subpaths: f32,
     /// M over the connections a camera path makes (light_paths.rs).

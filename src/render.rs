@@ -180,7 +180,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let mut pass_sum = vec![Vec3::ZERO; film.sum.len()];
     // Light tracing (light_tracing.rs): subpaths per sample index that
     // reach the camera, n_T.
-    let tracing = (connect && settings.light_tracing).then(|| LightTracing { lens: ctx.scene.camera.lens(w, h), subpaths: traced_per_sample(w, h) as f32, mis_scale });
+    let tracing = (connect && settings.light_tracing).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale });
     let mut start = samples.start;
     while start < samples.end {
         let range = start..(start + chunk).min(samples.end);
