@@ -20,7 +20,10 @@ Blender's glTF importer, and a rough gold sphere under an area light), it:
 3. measures the error of each image against the reference: relative MSE
    (mean of (x − ref)² / (ref² + 0.01), ε = 0.01) and RMSE; with --seeds N,
    N images per renderer and sample count (seeds 0 … N−1), their mean
-   error and time, and the error's standard error in the CSV;
+   error and time, and the error's standard error in the CSV; a point of
+   few samples takes more images, until they hold --min-samples samples
+   per pixel (32: 32 images at 1 spp, 16 at 2, …): a single image's
+   error there is a few fireflies' and scatters by tens of percent;
 4. writes OUT/SCENE.csv and OUT/SCENE.png (log–log error against seconds,
    one curve per renderer) and prints the equal-error speed-ups: the time
    Cycles (or Mitsuba) needs for N samples divided by the time Glint needs
@@ -210,6 +213,7 @@ def main():
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--mitsuba", action="store_true", help="also Mitsuba 3 (GLINT_BENCH_MITSUBA_VARIANT, default llvm_ad_rgb)")
     parser.add_argument("--seeds", type=int, default=1, help="images per renderer and sample count; the curves are their means")
+    parser.add_argument("--min-samples", type=int, default=32, help="more images at low sample counts, until a point's images hold this many samples per pixel")
     args = parser.parse_args()
     executable = os.environ.get("GLINT_EXECUTABLE", str(REPO / "target" / "release" / "glint"))
     out = Path(args.out)
@@ -250,7 +254,7 @@ def main():
                     # Seeds 0, 1, …: one image each, the means reported (a
                     # single image's error scatters by tens of percent).
                     runs = []
-                    for seed in range(args.seeds):
+                    for seed in range(max(args.seeds, -(-args.min_samples // spp))):
                         img, t = render(spp, seed)
                         runs.append((t, *errors(img, refs[renderer]), errors(img, refs["cycles"])[0]))
                     t, relmse, rmse, vs_cycles = (float(np.mean(column)) for column in zip(*runs))
