@@ -454,14 +454,13 @@ fn light_tracing_keeps_the_image_and_lowers_the_noise_of_a_caustic() {
     assert!(v_on < 0.5 * v_off, "light tracing {v_on} vs without {v_off}");
 }
 
-
 /// The four ways to a path of the Cornell box (BSDF sampling, light
 /// sampling, a connection to a light vertex, light tracing) must weigh each
 /// path with weights that sum to one, each side computing the others'
 /// densities; a weight that leaves one strategy out (light tracing in the
 /// connection's, say) makes the paths both reach count more than once. On
 /// this scene's gold sphere and walls the strategies overlap on most paths,
-/// so such a slip moves the whole image by about 1.5%: the image with all
+/// so such a slip moves the whole image by 0.6–1.6%: the image with all
 /// four must equal camera paths alone (BSDF and light sampling, whose MIS
 /// the analytic box checks) in every colour channel, at 5 standard errors.
 #[test]
