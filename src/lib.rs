@@ -2,6 +2,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
+pub mod console;
 pub mod environment;
 pub mod features;
 pub mod integrator;

@@ -191,7 +191,7 @@ fn main() {
         Command::Inspect { scene } => inspect(&scene),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        glint::stderr_line!("error: {e:#}");
         std::process::exit(1);
     }
 }
@@ -215,14 +215,14 @@ fn render(args: RenderArgs) -> Result<()> {
     let load_time = load_start.elapsed();
     let scene_name = args.scene.as_ref().map_or(glint::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     for w in &scene.warnings {
-        eprintln!("warning: {scene_name}: {w}");
+        glint::stderr_line!("warning: {scene_name}: {w}");
     }
     let (width, height) = (settings.width, settings.height);
     let pool = thread_pool(args.options.threads)?;
     let threads = pool.current_num_threads();
 
     let (mut ctx, build_time) = Context::new(&scene);
-    eprintln!("{}", ctx.features_line(&settings));
+    glint::stderr_line!("{}", ctx.features_line(&settings));
     // The Principled energy tables are built once per process, and only for
     // a kernel that has a glossy layer; build them before the clock starts,
     // with the rest of the set-up.
@@ -257,19 +257,19 @@ fn render(args: RenderArgs) -> Result<()> {
     write_outputs(&args.output, args.png.as_deref(), width, height, &pixels)?;
 
     let mrays = stats.rays.total() as f64 / seconds / 1e6;
-    eprintln!("{width}x{height}, {} spp, {seconds:.3} s, {mrays:.1} Mrays/s -> {}", film.samples, args.output.display());
+    glint::stderr_line!("{width}x{height}, {} spp, {seconds:.3} s, {mrays:.1} Mrays/s -> {}", film.samples, args.output.display());
     if stats.discarded > 0 {
-        eprintln!("warning: {} sample(s) were NaN or infinite and were discarded", stats.discarded);
+        glint::stderr_line!("warning: {} sample(s) were NaN or infinite and were discarded", stats.discarded);
     }
     if args.stats {
         let r = &stats.rays;
-        eprintln!("scene: {} triangles, {} emissive, {} materials; load {:.3} s, BVH build {:.3} s",
+        glint::stderr_line!("scene: {} triangles, {} emissive, {} materials; load {:.3} s, BVH build {:.3} s",
             scene.triangles.len(), ctx.lights.triangles.len(), scene.materials.len(), load_time.as_secs_f64(), build_time.as_secs_f64());
-        eprintln!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
-        eprintln!("time: {:.4} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
-        eprintln!("discarded non-finite samples: {}", stats.discarded);
+        glint::stderr_line!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
+        glint::stderr_line!("time: {:.4} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
+        glint::stderr_line!("discarded non-finite samples: {}", stats.discarded);
         if let Some(kib) = glint::memory::peak_rss_kib() {
-            eprintln!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);
+            glint::stderr_line!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);
         }
     }
     if args.traversal {
@@ -286,13 +286,13 @@ fn traversal_report(ctx: &mut Context, settings: &glint::render::RenderSettings,
     pool.install(|| render_pass(ctx, settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}))?;
     let rays = ctx.ray_log.take().map(|log| log.take()).unwrap_or_default();
     let rates = replay(ctx, &rays, 3);
-    eprintln!("traversal on 1 thread, the rays of one more sample per pixel: Glint's queries against obvhs alone");
+    glint::stderr_line!("traversal on 1 thread, the rays of one more sample per pixel: Glint's queries against obvhs alone");
     for (kind, r) in &rates {
         let share = if r.obvhs > 0.0 { 100.0 * r.glint / r.obvhs } else { 0.0 };
         let same = 100.0 * r.agree as f64 / r.rays.max(1) as f64;
-        eprintln!("  {:<6} {:>9} rays: {:.2} Mrays/s, obvhs alone {:.2} ({share:.0}%); same result on {same:.2}%", format!("{kind:?}").to_lowercase(), r.rays, r.glint, r.obvhs);
+        glint::stderr_line!("  {:<6} {:>9} rays: {:.2} Mrays/s, obvhs alone {:.2} ({share:.0}%); same result on {same:.2}%", format!("{kind:?}").to_lowercase(), r.rays, r.glint, r.obvhs);
     }
-    eprintln!("traversal share of the render's thread time: {:.0}%", 100.0 * traversal_share(&rates, &stats.rays, seconds, threads));
+    glint::stderr_line!("traversal share of the render's thread time: {:.0}%", 100.0 * traversal_share(&rates, &stats.rays, seconds, threads));
     Ok(())
 }
 
@@ -305,11 +305,11 @@ fn watch(args: WatchArgs) -> Result<()> {
 fn inspect(path: &Path) -> Result<()> {
     let found = loader::inspect_file(path)?;
     for w in &found.warnings {
-        eprintln!("warning: {}: {w}", path.display());
+        glint::stderr_line!("warning: {}: {w}", path.display());
     }
-    println!("{}: {} triangles, {} accessors, {} camera node(s)", path.display(), found.triangles, found.accessors, found.cameras);
+    glint::stdout_line!("{}: {} triangles, {} accessors, {} camera node(s)", path.display(), found.triangles, found.accessors, found.cameras);
     if let Some(problem) = found.camera_problem {
-        println!("{}: cannot render as it is: {problem}", path.display());
+        glint::stdout_line!("{}: cannot render as it is: {problem}", path.display());
     }
     Ok(())
 }

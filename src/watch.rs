@@ -162,13 +162,13 @@ impl Status<'_> {
             "output": s.output.map(|p| p.display().to_string()), "message": s.message, "warnings": s.warnings, "sequence": sequence,
         });
         if let Err(e) = output::write_bytes_atomically(&self.paths.status, json.to_string().as_bytes()) {
-            eprintln!("glint watch: {e:#}");
+            crate::stderr_line!("glint watch: {e:#}");
         }
         let job = s.job.unwrap_or("-");
         if s.state == "error" {
-            println!("error: {} job={job}", s.message);
+            crate::stdout_line!("error: {} job={job}", s.message);
         } else {
-            println!("{} samples={}/{} elapsed={:.2} job={job}", s.state, s.samples, s.total_samples, s.elapsed);
+            crate::stdout_line!("{} samples={}/{} elapsed={:.2} job={job}", s.state, s.samples, s.total_samples, s.elapsed);
         }
     }
 
@@ -199,7 +199,7 @@ pub fn run(options: &WatchOptions, pool: &rayon::ThreadPool) -> Result<()> {
                 let _ = watch_tx.send(signal);
             }
         }
-        Err(e) => eprintln!("glint watch: {e}"),
+        Err(e) => crate::stderr_line!("glint watch: {e}"),
     })
     .context("cannot start watching files")?;
     notify::Watcher::watch(&mut watcher, &paths.dir, notify::RecursiveMode::NonRecursive)
@@ -212,7 +212,7 @@ pub fn run(options: &WatchOptions, pool: &rayon::ThreadPool) -> Result<()> {
         });
     }
     let status = Status { paths: &paths, sequence: AtomicU64::new(0) };
-    eprintln!("glint watch: following {}", options.target.display());
+    crate::stderr_line!("glint watch: following {}", options.target.display());
     let _ = std::fs::remove_file(&paths.cancel);
     let mut dirty = paths.request.exists() || paths.scene(&RenderRequest::default()).exists();
     if !dirty {
@@ -269,7 +269,7 @@ pub fn run(options: &WatchOptions, pool: &rayon::ThreadPool) -> Result<()> {
                     }
                     Ok(Signal::Finished(outcome)) => {
                         if let Outcome::Failed(message) = outcome {
-                            eprintln!("glint watch: {message}");
+                            crate::stderr_line!("glint watch: {message}");
                         }
                         break;
                     }
@@ -304,12 +304,12 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
         Err(e) => return failed(status, job_id, e),
     };
     for w in &job.scene.warnings {
-        eprintln!("glint watch: warning: {}: {w}", scene_path.display());
+        crate::stderr_line!("glint watch: warning: {}: {w}", scene_path.display());
     }
     let (settings, budget) = (&job.settings, &job.budget);
     let (ctx, _) = Context::new(&job.scene);
     let features = ctx.features_line(settings);
-    eprintln!("glint watch: {}: {features}", scene_path.display());
+    crate::stderr_line!("glint watch: {}: {features}", scene_path.display());
     let mut film = Film::new(settings.width, settings.height);
     let line = |state, samples, elapsed, message| StatusLine {
         job: job_id,

@@ -2,7 +2,7 @@
 //! errors with a non-zero exit for bad input.
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 fn glint(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_glint")).args(args).output().expect("run glint")
@@ -137,4 +137,27 @@ fn a_missing_environment_image_is_a_one_line_error() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.lines().count() == 1 && err.contains("/nonexistent/sky.hdr"), "{err}");
+}
+
+/// A reader that goes away (`glint render … 2>&1 | head -1`) costs the lines
+/// it would have read, not the render: printing to the closed pipe panicked
+/// (exit 101) before the image was written.
+#[test]
+fn a_closed_output_pipe_does_not_lose_the_render() {
+    let dir = temp_dir("pipe");
+    let exr = dir.join("out.exr");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
+        .args(["render", "-o", exr.to_str().unwrap(), "--spp", "2", "--width", "40", "--height", "30", "--stats"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run glint");
+    // Closed before the first line: loading the scene comes first.
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{status}");
+    let (w, h, _) = glint::output::read_exr(&exr).unwrap();
+    assert_eq!((w, h), (40, 30));
+    std::fs::remove_dir_all(&dir).unwrap();
 }

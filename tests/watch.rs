@@ -222,3 +222,35 @@ fn a_single_scene_file_is_watched_with_its_request_beside_it() {
     assert_eq!(renders, 1, "{:#?}", d.seen);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A client that stops reading the status lines (its pipes closed) leaves
+/// the daemon rendering: status.json and the image still follow the job.
+#[test]
+fn a_daemon_whose_reader_is_gone_still_renders() {
+    let dir = job_dir("deaf");
+    put(&dir, "scene.gltf", SCENE.as_bytes());
+    put(&dir, "request.json", &request("deaf", r#", "samples": 2"#));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
+        .arg("watch")
+        .arg(&dir)
+        .args(["--threads", "2"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start glint watch");
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let start = Instant::now();
+    let state = || -> Option<serde_json::Value> { serde_json::from_slice(&std::fs::read(dir.join("status.json")).ok()?).ok() };
+    while !state().is_some_and(|s| s["state"] == "done" && s["job"] == "deaf") {
+        assert!(child.try_wait().unwrap().is_none(), "the daemon exited: {:?}", child.try_wait());
+        assert!(start.elapsed() < TIMEOUT, "no finished job in status.json within {TIMEOUT:?}: {:?}", state());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (w, h, _) = glint::output::read_exr(&dir.join("render.exr")).unwrap();
+    assert_eq!((w, h), (32, 32));
+    let _ = child.kill();
+    let _ = child.wait();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
