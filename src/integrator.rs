@@ -63,6 +63,7 @@ use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::scene::Scene;
 use crate::shading::{self, Barycentric};
+use crate::strategies::Strategy;
 use crate::environment;
 use glam::{Vec2, Vec3};
 
@@ -732,6 +733,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
     for depth in 0..=max_depth {
+        // Whether what this ray reaches counts (strategies.rs): the
+        // camera's own, or a BSDF sample's after `depth` bounces.
+        let seen_kept = settings.strategies.keeps(if depth == 0 { Strategy::Camera } else { Strategy::Bsdf }, depth);
         let hit = ctx.intersect(o, d, if depth == 0 { RayKind::Camera } else { RayKind::Bounce }, rng);
         // A lamp in front of the surface adds its light; the ray goes on.
         let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
@@ -739,21 +743,23 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
             let material = &ctx.scene.materials[tri.material as usize];
             // Blender hides lights from the camera unless told otherwise.
-            if depth > 0 || material.camera_sees_lamp {
+            if (depth > 0 || material.camera_sees_lamp) && seen_kept {
                 let cos_light = tri.cross().normalize().dot(d);
                 l += beta * emission_seen(ctx, lamp.triangle, material.emitted(cos_light < 0.0), lamp.t, d, cos_light, &from, settings.mis);
             }
         }
-        if PUNCTUAL && !ctx.lights.sized.is_empty() {
+        if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
             l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), &from, settings.mis);
         }
         let Some(hit) = hit else {
-            l += beta * world_seen(ctx, d, &from, settings.mis);
+            if seen_kept {
+                l += beta * world_seen(ctx, d, &from, settings.mis);
+            }
             break;
         };
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
-        if AREA {
+        if AREA && seen_kept {
             let le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
             l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, settings.mis);
         }
@@ -791,7 +797,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             tracing,
         };
         if AREA || PUNCTUAL || ctx.lights.has_world() {
-            l += beta * direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, rng, rays);
+            let direct = direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, rng, rays);
+            if settings.strategies.keeps(Strategy::Light, depth + 1) {
+                l += beta * direct;
+            }
         }
         if connects {
             z_depth = Some(depth);
@@ -801,7 +810,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
                 if let Some((v, scale)) = light_vertices.and_then(|vertices| vertices.pick(rng.next_u32())) {
                     if v.depth + depth < max_depth {
                         let tracing = if v.depth + 2 <= max_depth { tracing_over } else { 0.0 };
-                        l += beta * connection(ctx, prepared, &si, &bsdf, wo, v, scale / CONNECTIONS as f32, mis_scale, tracing, rng, rays);
+                        let joined = connection(ctx, prepared, &si, &bsdf, wo, v, scale / CONNECTIONS as f32, mis_scale, tracing, rng, rays);
+                        if settings.strategies.keeps(Strategy::Connection, depth + 1 + v.depth) {
+                            l += beta * joined;
+                        }
                     }
                 }
             }

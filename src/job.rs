@@ -191,6 +191,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         sampler: options.sampler.unwrap_or_default(),
         light_paths,
         light_tracing: light_paths,
+        strategies: Default::default(),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

@@ -25,6 +25,7 @@ pub mod sampling;
 pub mod scene;
 pub mod shading;
 pub mod spherical_triangle;
+pub mod strategies;
 pub mod texture;
 pub mod traversal_bench;
 pub mod triangle_pack;

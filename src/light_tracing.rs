@@ -28,6 +28,7 @@ use crate::camera::Lens;
 use crate::integrator::{bsdf_at, connects_from, shading_normal_for, Context};
 use crate::light_paths::LightVertex;
 use crate::rng::Rng;
+use crate::strategies::{Strategies, Strategy};
 use crate::sampling::Frame;
 use glam::Vec3;
 
@@ -45,6 +46,9 @@ pub struct LightTracing<'a> {
     pub subpaths: f32,
     /// M over the connections a camera path makes (light_paths.rs).
     pub mis_scale: f32,
+    /// Whether a splat's light counts (strategies.rs): checked last, so
+    /// that the splats left out draw the same numbers.
+    pub strategies: Strategies,
 }
 
 impl LightTracing<'_> {
@@ -84,7 +88,7 @@ impl LightTracing<'_> {
         let origin = y.spawn_origin(w);
         let to_camera = self.lens.position() - origin;
         let length = to_camera.length();
-        if !(length > 0.0) || ctx.occluded(origin, to_camera / length, length, u32::MAX, rng) {
+        if !(length > 0.0) || ctx.occluded(origin, to_camera / length, length, u32::MAX, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
             return None;
         }
         Some(Splat { pixel: seen.pixel, value })

@@ -13,6 +13,7 @@ use glint::render::{render_pass, Film, PassStats};
 use glint::request::EnvironmentRequest;
 use glint::request::RenderRequest;
 use glint::rng::Sampler;
+use glint::strategies::Strategies;
 use glint::watch::WatchOptions;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -167,6 +168,16 @@ struct RenderArgs {
     /// both rates by ray kind and the share of the render spent traversing.
     #[arg(long)]
     traversal: bool,
+    /// Add only these strategies' light to the image, to see which carries
+    /// the noise: camera (what the camera ray sees), bsdf (light a BSDF
+    /// sample reaches), light (light sampling), connection, tracing (light
+    /// tracing). Images of strategies apart add up to the whole [default: all].
+    #[arg(long, value_parser = Strategies::parse_list)]
+    strategies: Option<Strategies>,
+    /// Add only the light of paths with this many scattering events: N,
+    /// N-M, or N- (N and more) [default: all].
+    #[arg(long, value_parser = Strategies::parse_depths)]
+    depths: Option<(u32, u32)>,
 }
 
 #[derive(Args)]
@@ -211,8 +222,10 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let options = args.options.job_options().or(&JobOptions::from(&request));
     let load_start = Instant::now();
-    let Job { scene, settings, budget } = job::prepare(args.scene.as_deref(), &options, (&request).into()).map_err(anyhow::Error::msg)?;
+    let Job { scene, mut settings, budget } = job::prepare(args.scene.as_deref(), &options, (&request).into()).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
+    let (min, max) = args.depths.unwrap_or((0, u32::MAX));
+    settings.strategies = args.strategies.unwrap_or_default().with_depths(min, max);
     let scene_name = args.scene.as_ref().map_or(glint::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     for w in &scene.warnings {
         glint::stderr_line!("warning: {scene_name}: {w}");
@@ -223,6 +236,9 @@ fn render(args: RenderArgs) -> Result<()> {
 
     let (mut ctx, build_time) = Context::new(&scene);
     glint::stderr_line!("{}", ctx.features_line(&settings));
+    if !settings.strategies.is_all() {
+        glint::stderr_line!("a part of the image: the light of {}", settings.strategies);
+    }
     // The Principled energy tables are built once per process, and only for
     // a kernel that has a glossy layer; build them before the clock starts,
     // with the rest of the set-up.

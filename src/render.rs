@@ -8,6 +8,7 @@ use crate::features::{FeatureMode, KernelBsdf};
 use crate::integrator::{prepare_materials, radiance, Context, LightVertices, RayCounts};
 use crate::light_paths::PER_SAMPLE;
 use crate::light_tracing::LightTracing;
+use crate::strategies::Strategies;
 use crate::rng::{Rng, Sampler};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -66,6 +67,9 @@ pub struct RenderSettings {
     /// Also add light subpaths' vertices to the pixels they appear in
     /// (light_tracing.rs), where light paths are on.
     pub light_tracing: bool,
+    /// Whose light reaches the image: all of it but when taking a render
+    /// apart (strategies.rs).
+    pub strategies: Strategies,
 }
 
 /// Sums of radiance samples per pixel, row-major from the top-left.
@@ -180,7 +184,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let mut pass_sum = vec![Vec3::ZERO; film.sum.len()];
     // Light tracing (light_tracing.rs): subpaths per sample index that
     // reach the camera, n_T.
-    let tracing = (connect && settings.light_tracing).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale });
+    let tracing = (connect && settings.light_tracing).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
     let mut start = samples.start;
     while start < samples.end {
         let range = start..(start + chunk).min(samples.end);
