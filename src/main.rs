@@ -239,9 +239,9 @@ fn render(args: RenderArgs) -> Result<()> {
     if !settings.strategies.is_all() {
         glint::stderr_line!("a part of the image: the light of {}", settings.strategies);
     }
-    // The Principled energy tables are built once per process, and only for
-    // a kernel that has a glossy layer; build them before the clock starts,
-    // with the rest of the set-up.
+    // The Principled energy tables are read from the binary once per
+    // process (bsdf/baked.rs), and only for a kernel that has a glossy
+    // layer: before the clock starts, with the rest of the set-up.
     if ctx.kernel(&settings).bsdf == KernelBsdf::Principled {
         glint::bsdf::energy::tables();
     }

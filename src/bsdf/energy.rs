@@ -1,5 +1,6 @@
 //! Energy tables for the Principled model, computed by Glint's own lobe
-//! code on first use (about 0.1 s) and read by bilinear interpolation:
+//! code, baked into the binary (baked.rs) and read by bilinear
+//! interpolation:
 //!
 //! * E(μ, r): directional albedo of the single-scattering GGX lobe with
 //!   F = 1 — what a perfectly reflecting rough surface loses to the missing
@@ -20,7 +21,7 @@
 //! Fresnel. With F = 1, S·E = 1: a white rough metal reflects everything.
 
 use super::microfacet::{fresnel_dielectric, g1, g2, sample_visible_normal};
-use super::SMOOTH_ALPHA_SQ;
+use super::{baked, SMOOTH_ALPHA_SQ};
 use crate::rng::Rng;
 use rayon::prelude::*;
 use glam::{Vec2, Vec3};
@@ -124,8 +125,12 @@ pub fn ms_scale(e: f32, f_ms: Vec3) -> Vec3 {
     Vec3::ONE + f_ms * ((1.0 - e) / e)
 }
 
+/// Floats a baked `EnergyTables` holds: E, E_avg, E_layer, F_avg.
+pub(super) const BAKED_FLOATS: usize = 2 * N * N + N + 1;
+
 impl EnergyTables {
-    fn build() -> Self {
+    /// The tables from the lobe code (about 0.1 s on 2 cores).
+    pub fn build() -> Self {
         // Rows in parallel: 2 × 1024 entries × 2304 samples.
         let e: Vec<f32> = (0..N * N).into_par_iter().map(|k| single_scatter_albedo(grid_mu(k % N), grid(k / N), |_| 1.0)).collect();
         let e_avg: Vec<f32> = e.chunks(N).map(|e_row| cosine_average(|mu| lerp_grid(e_row, column(mu)))).collect();
@@ -139,6 +144,18 @@ impl EnergyTables {
             })
             .collect();
         EnergyTables { e, e_avg, e_layer, dielectric_f_avg: f_avg }
+    }
+
+    /// Every value, in the baked file's order.
+    pub fn to_floats(&self) -> Vec<f32> {
+        [&self.e[..], &self.e_avg, &self.e_layer, &[self.dielectric_f_avg]].concat()
+    }
+
+    fn from_floats(v: &[f32]) -> Self {
+        let (e, rest) = v.split_at(N * N);
+        let (e_avg, rest) = rest.split_at(N);
+        let (e_layer, rest) = rest.split_at(N * N);
+        EnergyTables { e: e.to_vec(), e_avg: e_avg.to_vec(), e_layer: e_layer.to_vec(), dielectric_f_avg: rest[0] }
     }
 
     pub fn e(&self, mu: f32, roughness: f32) -> f32 {
@@ -187,9 +204,11 @@ impl GridPoint {
     }
 }
 
+/// The baked tables (built afresh only if the baked file were not the
+/// tables' size, which the tests rule out).
 pub fn tables() -> &'static EnergyTables {
     static TABLES: OnceLock<EnergyTables> = OnceLock::new();
-    TABLES.get_or_init(EnergyTables::build)
+    TABLES.get_or_init(|| baked::floats(include_bytes!("energy.bin"), BAKED_FLOATS).map_or_else(EnergyTables::build, |v| EnergyTables::from_floats(&v)))
 }
 
 #[cfg(test)]

@@ -379,6 +379,7 @@ impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
 impl_bsdf!(PrincipledBsdf, evaluate; prepared principled::PrincipledLobes);
 
+pub mod baked;
 pub mod dielectric;
 pub mod energy;
 pub mod microfacet;
