@@ -214,10 +214,12 @@ def main():
     parser.add_argument("--mitsuba", action="store_true", help="also Mitsuba 3 (GLINT_BENCH_MITSUBA_VARIANT, default llvm_ad_rgb)")
     parser.add_argument("--seeds", type=int, default=1, help="images per renderer and sample count; the curves are their means")
     parser.add_argument("--min-samples", type=int, default=32, help="more images at low sample counts, until a point's images hold this many samples per pixel")
+    parser.add_argument("--export", metavar="DIR", help="only write each scene as the add-on hands it to Glint, DIR/NAME/scene.glb and request.json, and stop")
     args = parser.parse_args()
     executable = os.environ.get("GLINT_EXECUTABLE", str(REPO / "target" / "release" / "glint"))
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    if not args.export:
+        out.mkdir(parents=True, exist_ok=True)
 
     addons = tempfile.mkdtemp(prefix="glint-addon-path-")
     os.symlink(REPO / "addon", os.path.join(addons, "glint"))
@@ -230,6 +232,12 @@ def main():
     try:
         for name in args.scenes.split(","):
             scene = setup(SCENES[name], args.size)
+            if args.export:
+                folder = Path(args.export) / name
+                folder.mkdir(parents=True, exist_ok=True)
+                export_for_glint(scene, folder)
+                print(f"{name}: wrote {folder / 'scene.glb'} and {folder / 'request.json'}", flush=True)
+                continue
             work = Path(tempfile.mkdtemp(prefix=f"glint-conv-{name}-"))
             refs = {}
             refs["cycles"], ref_seconds = cycles(scene, args.reference_spp, work / "ref.exr", seed=12345)
