@@ -19,8 +19,8 @@ struct Daemon {
 }
 
 impl Daemon {
-    fn start(target: &Path, extra: &[&str]) -> Daemon {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
+    fn spawn(target: &Path, extra: &[&str]) -> Child {
+        Command::new(env!("CARGO_BIN_EXE_glint"))
             .arg("watch")
             .arg(target)
             .args(["--width", "32", "--height", "32", "--threads", "2"])
@@ -29,7 +29,11 @@ impl Daemon {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
-            .expect("start glint watch");
+            .expect("start glint watch")
+    }
+
+    fn start(target: &Path, extra: &[&str]) -> Daemon {
+        let mut child = Self::spawn(target, extra);
         let (tx, lines) = channel();
         let out = BufReader::new(child.stdout.take().unwrap());
         std::thread::spawn(move || {
@@ -39,6 +43,16 @@ impl Daemon {
         });
         let stdin = child.stdin.take();
         Daemon { child, lines, seen: Vec::new(), stdin }
+    }
+
+    /// A daemon whose client has stopped reading: its stdout and stderr
+    /// closed at once, so it has no status lines to wait for.
+    fn start_unread(target: &Path, extra: &[&str]) -> Daemon {
+        let mut child = Self::spawn(target, extra);
+        drop(child.stdout.take());
+        drop(child.stderr.take());
+        let stdin = child.stdin.take();
+        Daemon { child, lines: channel().1, seen: Vec::new(), stdin }
     }
 
     /// Read status lines until one satisfies `want`; returns it.
@@ -230,27 +244,16 @@ fn a_daemon_whose_reader_is_gone_still_renders() {
     let dir = job_dir("deaf");
     put(&dir, "scene.gltf", SCENE.as_bytes());
     put(&dir, "request.json", &request("deaf", r#", "samples": 2"#));
-    let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
-        .arg("watch")
-        .arg(&dir)
-        .args(["--threads", "2"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start glint watch");
-    drop(child.stdout.take());
-    drop(child.stderr.take());
+    let mut d = Daemon::start_unread(&dir, &[]);
     let start = Instant::now();
     let state = || -> Option<serde_json::Value> { serde_json::from_slice(&std::fs::read(dir.join("status.json")).ok()?).ok() };
     while !state().is_some_and(|s| s["state"] == "done" && s["job"] == "deaf") {
-        assert!(child.try_wait().unwrap().is_none(), "the daemon exited: {:?}", child.try_wait());
+        assert!(d.child.try_wait().unwrap().is_none(), "the daemon exited: {:?}", d.child.try_wait());
         assert!(start.elapsed() < TIMEOUT, "no finished job in status.json within {TIMEOUT:?}: {:?}", state());
         std::thread::sleep(Duration::from_millis(50));
     }
     let (w, h, _) = glint::output::read_exr(&dir.join("render.exr")).unwrap();
     assert_eq!((w, h), (32, 32));
-    let _ = child.kill();
-    let _ = child.wait();
+    drop(d);
     std::fs::remove_dir_all(&dir).unwrap();
 }
