@@ -10,7 +10,6 @@
 //! so a sample's weight f·cosθi/pdf is F·G2/G1(wo): no D, no division by a
 //! small cosine.
 
-use super::ggx::d;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -36,13 +35,33 @@ pub fn g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
     1.0 / (1.0 + lambda(wo, alpha) + lambda(wi, alpha))
 }
 
-/// D·G2 / (4 cosθo cosθi): the lobe without its Fresnel factor.
-pub fn eval(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
+/// cosθ·√(1 + α² tan²θ) = √(z² + α²(x² + y²)), of which Λ is made:
+/// 1 + Λ(w) = (cosθ + this) / (2 cosθ). So
+///   G2 / (4 cosθo cosθi) = 1 / (2 (cosθi·root(wo) + cosθo·root(wi)))
+///   G1(wo) / (4 cosθo)   = 1 / (2 (cosθo + root(wo)))
+/// with no tan² and no division by a cosine, which at grazing angles
+/// were four divisions of each evaluation and their rounding.
+#[inline]
+fn smith_root(w: Vec3, a2: f32) -> f32 {
+    (w.z * w.z + a2 * (w.x * w.x + w.y * w.y)).sqrt()
+}
+
+/// D of the half vector of wo and wi, from h = wo + wi unnormalised:
+/// D(h/|h|) = α² |h|⁴ / (π (h_z² α² + h_x² + h_y²)²), which needs neither
+/// the square root nor the division of normalising h.
+#[inline]
+fn d_of_sum(h: Vec3, a2: f32) -> f32 {
+    if !(h.z > 0.0) {
         return 0.0;
     }
-    let h = (wo + wi).normalize_or_zero();
-    d(h, alpha) * g2(wo, wi, alpha) / (4.0 * wo.z * wi.z)
+    let (z2, s2) = (h.z * h.z, h.x * h.x + h.y * h.y);
+    let (len2, denom) = (z2 + s2, z2 * a2 + s2);
+    a2 * (len2 * len2) / (PI * denom * denom)
+}
+
+/// D·G2 / (4 cosθo cosθi): the lobe without its Fresnel factor.
+pub fn eval(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
+    eval_pdf(wo, wi, alpha).0
 }
 
 /// A visible normal for wo (Heitz 2018): a point on the disk seen from wo
@@ -72,27 +91,28 @@ pub fn sample(wo: Vec3, alpha: f32, u: Vec2) -> Option<(Vec3, Vec3)> {
     (wi.z > 0.0 && wi.is_finite()).then_some((wi, h))
 }
 
-/// `eval` and `pdf` together, sharing h, D and Λ(wo): the same numbers,
-/// bit for bit.
+/// `eval` and `pdf` together, sharing D and root(wo): `eval` and `pdf`
+/// are this, so the three give the same numbers, bit for bit.
 #[inline]
 pub fn eval_pdf(wo: Vec3, wi: Vec3, alpha: f32) -> (f32, f32) {
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return (0.0, 0.0);
     }
-    let h = (wo + wi).normalize_or_zero();
-    let d = d(h, alpha);
-    let lambda_o = lambda(wo, alpha);
-    let g2 = 1.0 / (1.0 + lambda_o + lambda(wi, alpha));
-    let g1 = 1.0 / (1.0 + lambda_o);
-    (d * g2 / (4.0 * wo.z * wi.z), d * g1 / (4.0 * wo.z))
+    let a2 = alpha * alpha;
+    let half_d = 0.5 * d_of_sum(wo + wi, a2);
+    let root_o = smith_root(wo, a2);
+    (half_d / (wi.z * root_o + wo.z * smith_root(wi, a2)), half_d / (wo.z + root_o))
 }
 
 pub fn pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
-        return 0.0;
-    }
-    let h = (wo + wi).normalize_or_zero();
-    d(h, alpha) * g1(wo, alpha) / (4.0 * wo.z)
+    eval_pdf(wo, wi, alpha).1
+}
+
+/// wo·h for the half vector h of unit wo and wi: √((1 + wo·wi)/2), one
+/// square root where normalising h took one and a division.
+#[inline]
+pub fn cos_half(wo: Vec3, wi: Vec3) -> f32 {
+    ((1.0 + wo.dot(wi)) * 0.5).max(0.0).sqrt()
 }
 
 /// Fresnel reflectance of a smooth dielectric boundary, unpolarised, for

@@ -170,8 +170,7 @@ impl PrincipledBsdf {
         if self.smooth || !self.has_glossy() {
             return diffuse;
         }
-        let h = (wo + wi).normalize_or_zero();
-        diffuse + self.glossy_fresnel(wo.dot(h)) * microfacet::eval(wo, wi, self.alpha)
+        diffuse + self.glossy_fresnel(microfacet::cos_half(wo, wi)) * microfacet::eval(wo, wi, self.alpha)
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -192,9 +191,8 @@ impl PrincipledBsdf {
         if self.smooth || !self.has_glossy() {
             return (diffuse, 0.0 + diffuse_pdf);
         }
-        let h = (wo + wi).normalize_or_zero();
         let (lobe, lobe_pdf) = microfacet::eval_pdf(wo, wi, self.alpha);
-        (diffuse + self.glossy_fresnel(wo.dot(h)) * lobe, p * lobe_pdf + diffuse_pdf)
+        (diffuse + self.glossy_fresnel(microfacet::cos_half(wo, wi)) * lobe, p * lobe_pdf + diffuse_pdf)
     }
 
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
