@@ -10,6 +10,7 @@
 //! so a sample's weight f·cosθi/pdf is F·G2/G1(wo): no D, no division by a
 //! small cosine.
 
+use super::ggx;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -46,17 +47,19 @@ fn smith_root(w: Vec3, a2: f32) -> f32 {
     (w.z * w.z + a2 * (w.x * w.x + w.y * w.y)).sqrt()
 }
 
-/// D of the half vector of wo and wi, from h = wo + wi unnormalised:
-/// D(h/|h|) = α² |h|⁴ / (π (h_z² α² + h_x² + h_y²)²), which needs neither
-/// the square root nor the division of normalising h.
+/// D of the half vector of wo and wi, from h = wo + wi unnormalised: its
+/// bracket (ggx::d) from cos²θh = h_z²/|h|² and sin²θh = (h_x² + h_y²)/|h|²,
+/// which needs no square root. Formed at h itself, the bracket's square
+/// underflowed to 0 where wo and wi both graze on opposite sides (|h| ~
+/// 1e-8 with α = 1e-4 gave inf, smaller NaN); the ratios are in [0, 1].
 #[inline]
 fn d_of_sum(h: Vec3, a2: f32) -> f32 {
     if !(h.z > 0.0) {
         return 0.0;
     }
     let (z2, s2) = (h.z * h.z, h.x * h.x + h.y * h.y);
-    let (len2, denom) = (z2 + s2, z2 * a2 + s2);
-    a2 * (len2 * len2) / (PI * denom * denom)
+    let inv_len2 = 1.0 / (z2 + s2);
+    ggx::d_of_bracket(z2 * inv_len2 * a2 + s2 * inv_len2, a2)
 }
 
 /// D·G2 / (4 cosθo cosθi): the lobe without its Fresnel factor.

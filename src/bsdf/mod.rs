@@ -106,8 +106,13 @@ pub mod ggx {
             return 0.0;
         }
         let a2 = alpha * alpha;
-        let denom = h.z * h.z * a2 + (h.x * h.x + h.y * h.y);
-        a2 / (PI * denom * denom)
+        d_of_bracket(h.z * h.z * a2 + (h.x * h.x + h.y * h.y), a2)
+    }
+
+    /// D from its bracket cos²θh·α² + sin²θh and α².
+    #[inline]
+    pub fn d_of_bracket(bracket: f32, a2: f32) -> f32 {
+        a2 / (PI * bracket * bracket)
     }
 
     /// Schlick-GGX masking for one direction, G1 = n·v / (n·v (1−k) + k).

@@ -443,9 +443,31 @@ fn evaluate_is_eval_and_pdf_bit_for_bit() {
 /// by a cosine) is the textbook one, D(ĥ)·G2/(4 cosθo cosθi) and
 /// D(ĥ)·G1/(4 cosθo) with Λ as the energy tables use it, to float
 /// rounding (1e-4 relative, a few ulps through D's squares), from the
-/// mirror threshold to α = 1 and from normal incidence to cosines of 1e-6.
+/// mirror threshold to α = 1 and from normal incidence to cosines of 1e-6,
+/// and where wo and wi graze on opposite sides (cosines to 1e-10, the half
+/// vector's length ~1e-10), whose D had underflowed to inf and NaN.
 #[test]
 fn the_lobe_in_visibility_form_is_the_textbook_one() {
+    let textbook = |wo: Vec3, wi: Vec3, alpha: f32| {
+        let d = ggx::d((wo + wi).normalize(), alpha);
+        (d * microfacet::g2(wo, wi, alpha) / (4.0 * wo.z * wi.z), d * microfacet::g1(wo, alpha) / (4.0 * wo.z))
+    };
+    let check = |wo: Vec3, wi: Vec3, alpha: f32| {
+        let (f, pdf) = microfacet::eval_pdf(wo, wi, alpha);
+        let (f_ref, pdf_ref) = textbook(wo, wi, alpha);
+        for (got, want) in [(f, f_ref), (pdf, pdf_ref)] {
+            assert!(got.is_finite() && got >= 0.0, "α {alpha} wo {wo} wi {wi}: {got}");
+            if want.is_finite() && want > 1e-30 {
+                assert!((got / want - 1.0).abs() < 1e-4, "α {alpha} wo {wo} wi {wi}: {got} against {want}");
+            }
+        }
+        assert_eq!((microfacet::eval(wo, wi, alpha), microfacet::pdf(wo, wi, alpha)), (f, pdf));
+    };
+    for alpha in [SMOOTH_ALPHA_SQ.sqrt() * 1.01, 1e-4, 0.01, 0.3] {
+        for eps in [1e-4f32, 1e-6, 1e-8, 1e-10] {
+            check(Vec3::new(1.0, 0.0, eps).normalize(), Vec3::new(-1.0, 0.0, eps).normalize(), alpha);
+        }
+    }
     let mut rng = Rng::new(4, 2);
     for alpha in [SMOOTH_ALPHA_SQ.sqrt() * 1.01, 1e-3, 0.09, 0.5, 1.0] {
         for theta_o in [0.0f32, 45.0, 89.0, 89.99994] {
@@ -453,16 +475,7 @@ fn the_lobe_in_visibility_form_is_the_textbook_one() {
             for _ in 0..400 {
                 let wi = crate::sampling::cosine_hemisphere(rng.next_2d());
                 let wi = if rng.next_f32() < 0.1 { microfacet::sample(wo, alpha, rng.next_2d()).map_or(wi, |s| s.0) } else { wi };
-                let (f, pdf) = microfacet::eval_pdf(wo, wi, alpha);
-                let d = ggx::d((wo + wi).normalize(), alpha);
-                let (f_ref, pdf_ref) = (d * microfacet::g2(wo, wi, alpha) / (4.0 * wo.z * wi.z), d * microfacet::g1(wo, alpha) / (4.0 * wo.z));
-                for (got, want) in [(f, f_ref), (pdf, pdf_ref)] {
-                    assert!(got.is_finite() && got >= 0.0, "α {alpha} wo {wo} wi {wi}: {got}");
-                    if want.is_finite() && want > 1e-30 {
-                        assert!((got / want - 1.0).abs() < 1e-4, "α {alpha} wo {wo} wi {wi}: {got} against {want}");
-                    }
-                }
-                assert_eq!((microfacet::eval(wo, wi, alpha), microfacet::pdf(wo, wi, alpha)), (f, pdf));
+                check(wo, wi, alpha);
             }
         }
     }
