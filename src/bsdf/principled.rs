@@ -23,7 +23,7 @@
 //! Like Cycles, the layering and the compensation depend on wo only, so the
 //! model is not reciprocal; the lobes themselves are.
 
-use super::energy::{ms_fraction, ms_scale, tables, DIELECTRIC_ETA};
+use super::energy::{ms_fraction, ms_scale, tables, TableRow, DIELECTRIC_ETA};
 use super::microfacet::{self, fresnel_dielectric, schlick_average};
 use super::{fresnel_schlick, lambert, luminance, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
 use crate::material::Surface;
@@ -56,6 +56,8 @@ pub struct PrincipledLobes {
     metallic: f32,
     specular: f32,
     roughness: f32,
+    /// The energy tables' rows for this roughness.
+    row: TableRow,
     alpha: f32,
     smooth: bool,
     pure_lambert: bool,
@@ -91,6 +93,7 @@ impl PrincipledLobes {
             metallic: m.metallic.clamp(0.0, 1.0),
             specular: (m.specular * ior_ratio * ior_ratio).clamp(0.0, 4.0),
             roughness,
+            row: TableRow::of(roughness),
             alpha,
             smooth,
             pure_lambert,
@@ -120,7 +123,7 @@ impl PrincipledBsdf {
         let (s_metal, s_dielectric, layer) = if smooth {
             (Vec3::ONE, 1.0, fresnel_dielectric(mu, DIELECTRIC_ETA))
         } else {
-            let (e, layer) = tables().e_and_layer(mu, roughness);
+            let (e, layer) = tables().e_and_layer_in(m.row, mu);
             let s_dielectric = ms_scale(e, Vec3::splat(m.f_ms_dielectric)).x;
             if m.multiscatter {
                 (ms_scale(e, m.f_ms_metal), s_dielectric, layer)
