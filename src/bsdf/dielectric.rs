@@ -26,7 +26,7 @@
 //! is compensated by 1/E (E the lobe's single-scattering albedo, both lobes,
 //! tabulated below), darkened for a coloured tint as energy.rs does for metal.
 
-use super::energy::{cosine_average, lerp_grid, ms_fraction, ms_scale, view, visible_normal_mean};
+use super::energy::{cell, cosine_average, lerp_grid, ms_fraction, ms_scale, view, visible_normal_mean};
 use super::ggx::d;
 use super::microfacet::{fresnel_dielectric, g1, g2, sample_visible_normal};
 use super::{baked, BsdfSample, SMOOTH_ALPHA_SQ};
@@ -279,7 +279,7 @@ impl GlassTables {
 /// Linear interpolation between the values at the two grid indices around
 /// x, each given by `at` (a row or plane of a table).
 fn lerp_pair(at: impl Fn(usize) -> f32, x: f32) -> f32 {
-    let i = (x.max(0.0) as usize).min(G - 2);
+    let i = cell(x, G);
     let t = (x - i as f32).clamp(0.0, 1.0);
     at(i) * (1.0 - t) + at(i + 1) * t
 }

@@ -192,7 +192,7 @@ impl EnergyTables {
 /// `as usize` would): through i32, whose conversion is one instruction
 /// where usize's takes a dozen.
 #[inline]
-fn cell(x: f32, len: usize) -> usize {
+pub(super) fn cell(x: f32, len: usize) -> usize {
     (x as i32).clamp(0, len as i32 - 2) as usize
 }
 
