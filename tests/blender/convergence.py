@@ -204,6 +204,25 @@ def plot(name, rows, path):
     plt.close(fig)
 
 
+def machine():
+    """The processor, its cores and vector extensions: renderers' ratios
+    depend on them (Mitsuba's LLVM kernels take the host's widest vectors,
+    Glint's node test AVX where it is found)."""
+    model, flags = "unknown processor", set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name" and model == "unknown processor":
+                    model = value.strip()
+                elif key.strip() == "flags" and not flags:
+                    flags = set(value.split())
+    except OSError:
+        pass
+    vectors = ", ".join(v for v in ("avx2", "fma", "avx512f") if v in flags) or "no AVX2"
+    return f"{model}, {os.cpu_count()} cores, {vectors}"
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", default="convergence")
@@ -220,6 +239,7 @@ def main():
     out = Path(args.out)
     if not args.export:
         out.mkdir(parents=True, exist_ok=True)
+        print(f"machine: {machine()}", flush=True)
 
     addons = tempfile.mkdtemp(prefix="glint-addon-path-")
     os.symlink(REPO / "addon", os.path.join(addons, "glint"))
