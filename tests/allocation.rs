@@ -3,6 +3,8 @@
 //! splats), never per path. Counted by a global allocator of this test
 //! binary's own.
 
+mod common;
+
 use glint::integrator::Context;
 use glint::loader::{load_bytes, LoadOptions};
 use glint::render::{render_pass, Film, RenderSettings};
@@ -44,20 +46,7 @@ fn the_render_loop_allocates_per_pass_not_per_pixel_sample() {
     let ctx = Context::new(&scene).0;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let allocations = |spp: u32| {
-        let settings = RenderSettings {
-            width: 32,
-            height: 32,
-            spp,
-            max_depth: 16,
-            seed: 5,
-            mis: true,
-            bsdf: Default::default(),
-            features: Default::default(),
-            sampler: Default::default(),
-            light_paths: true,
-            light_tracing: true,
-            strategies: Default::default(),
-        };
+        let settings = RenderSettings { mis: true, ..common::settings(32, 32, spp, 16, 5) };
         assert!(ctx.traces_light_paths(&settings), "the test must run every strategy");
         let mut film = Film::new(32, 32);
         pool.install(|| {

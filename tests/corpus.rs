@@ -44,21 +44,24 @@ fn panic_message(panic: Box<dyn std::any::Any + Send>) -> String {
     panic.downcast_ref::<String>().cloned().or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default()
 }
 
-/// Inspect (read everything) in a worker thread so a panic is caught and a
-/// hang is detected.
-fn load_guarded(path: &Path) -> Outcome {
+/// `work` on `path` in a worker thread, so that a panic is caught (its
+/// message is the Err) and a hang is detected.
+fn guarded<T: Send + 'static>(path: &Path, work: impl FnOnce(&Path) -> T + Send + std::panic::UnwindSafe + 'static) -> Result<T, String> {
     let (tx, rx) = mpsc::channel();
     let p = path.to_path_buf();
     std::thread::spawn(move || {
-        let r = std::panic::catch_unwind(|| inspect_file(&p));
-        let outcome = match r {
-            Ok(Ok(found)) => Outcome::Loaded(found.triangles),
-            Ok(Err(e)) => Outcome::Error(e.to_string()),
-            Err(panic) => Outcome::Panicked(panic_message(panic)),
-        };
-        let _ = tx.send(outcome);
+        let _ = tx.send(std::panic::catch_unwind(move || work(&p)).map_err(panic_message));
     });
-    rx.recv_timeout(Duration::from_secs(20)).unwrap_or_else(|_| panic!("{}: loading hung for 20 s", path.display()))
+    rx.recv_timeout(Duration::from_secs(20)).unwrap_or_else(|_| panic!("{}: hung for 20 s", path.display()))
+}
+
+/// Inspect (read everything) in a worker thread.
+fn load_guarded(path: &Path) -> Outcome {
+    match guarded(path, |p| inspect_file(p)) {
+        Ok(Ok(found)) => Outcome::Loaded(found.triangles),
+        Ok(Err(e)) => Outcome::Error(e.to_string()),
+        Err(panic) => Outcome::Panicked(panic),
+    }
 }
 
 #[test]
@@ -179,25 +182,20 @@ fn pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
     }
 }
 
-/// Load, inspect and render a file in a worker thread: the outcome, or the
+/// Inspect, load and render a file in a worker thread: the outcome, or the
 /// panic's message.
 fn render_guarded(path: &Path, camera: Option<&str>) -> Result<Result<(), String>, String> {
-    let (tx, rx) = mpsc::channel();
-    let (p, camera) = (path.to_path_buf(), camera.map(str::to_string));
-    std::thread::spawn(move || {
-        let r = std::panic::catch_unwind(|| -> Result<(), String> {
-            inspect_file(&p).map_err(|e| e.to_string())?;
-            let options = JobOptions { camera, width: Some(12), height: Some(12), samples: Some(1), ..JobOptions::default() };
-            let job = prepare(Some(&p), &options, SceneExtras::default())?;
-            let (ctx, _) = Context::new(&job.scene);
-            let mut film = Film::new(12, 12);
-            render_pass(&ctx, &job.settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}).map_err(|e| e.to_string())?;
-            assert!(film.mean().iter().all(|p| p.is_finite()), "a pixel is not finite");
-            Ok(())
-        });
-        let _ = tx.send(r.map_err(panic_message));
-    });
-    rx.recv_timeout(Duration::from_secs(20)).unwrap_or_else(|_| panic!("{}: hung for 20 s", path.display()))
+    let camera = camera.map(str::to_string);
+    guarded(path, move |p| -> Result<(), String> {
+        inspect_file(p).map_err(|e| e.to_string())?;
+        let options = JobOptions { camera, width: Some(12), height: Some(12), samples: Some(1), ..JobOptions::default() };
+        let job = prepare(Some(p), &options, SceneExtras::default())?;
+        let (ctx, _) = Context::new(&job.scene);
+        let mut film = Film::new(12, 12);
+        render_pass(&ctx, &job.settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}).map_err(|e| e.to_string())?;
+        assert!(film.mean().iter().all(|p| p.is_finite()), "a pixel is not finite");
+        Ok(())
+    })
 }
 
 /// Files that are plausible glTF but wrong in one to three places: the
