@@ -19,8 +19,9 @@ Blender's glTF importer, and a rough gold sphere under an area light), it:
    after a first render at the same sample count has compiled its kernels;
 3. measures the error of each image against the reference: relative MSE
    (mean of (x − ref)² / (ref² + 0.01), ε = 0.01) and RMSE; with --seeds N,
-   N images per renderer and sample count (seeds 0 … N−1), their mean
-   error and time, and the error's standard error in the CSV; a point of
+   N images per renderer and sample count (seeds 0 … N−1, the renderers
+   taking turns seed by seed), their mean error and time, and the error's
+   standard error in the CSV; a point of
    few samples takes more images, until they hold --min-samples samples
    per pixel (32: 32 images at 1 spp, 16 at 2, …): a single image's
    error there is a few fireflies' and scatters by tens of percent;
@@ -28,7 +29,9 @@ Blender's glTF importer, and a rough gold sphere under an area light), it:
    one curve per renderer) and prints the equal-error speed-ups: the time
    Cycles (or Mitsuba) needs for N samples divided by the time Glint needs
    to reach the same error (interpolated on its curve), with Glint's
-   million rays per second and peak memory.
+   million rays per second and peak memory; and the time to a clean
+   image: the seconds each renderer needs for relMSE 0.1, 0.03, 0.01 and
+   0.003, past the end of a curve extrapolated by the 1/time law.
 
 This is a benchmark that prints figures, not a test: the README holds the
 latest table and plot.
@@ -182,6 +185,39 @@ def time_to_reach(curve, target):
     return None
 
 
+# Errors at which an image counts as clean, for the time-to-clean table:
+# relMSE 0.01 is about 10% noise in a mid-grey pixel.
+CLEAN_LEVELS = (0.1, 0.03, 0.01, 0.003)
+
+
+def time_to_level(curve, target):
+    """(seconds, extrapolated): when a (seconds, error) curve reaches
+    `target` — on the curve by log–log interpolation, or past its last
+    point by the 1/time law of an unbiased estimator (error × time stays
+    constant), then flagged; (None, False) for an empty curve."""
+    t = time_to_reach(curve, target)
+    if t is not None or not curve:
+        return t, False
+    t_last, e_last = curve[-1]
+    return t_last * e_last / target, True
+
+
+def clean_image_table(name, rows, renderers):
+    """Seconds each renderer needs for an image of each `CLEAN_LEVELS`
+    error, and Glint's lead over each peer there: the time a user waits
+    for a clean image. A time past a curve's last point is extrapolated
+    (marked ~)."""
+    curves = {r: [(row["seconds"], row["relmse"]) for row in rows if row["renderer"] == r] for r in renderers}
+    lines = [f"{name}: time to relMSE | " + " | ".join(f"{r} s" for r in renderers) + " | " + " | ".join(f"over {r}" for r in renderers if r != "glint")]
+    for level in CLEAN_LEVELS:
+        times = {r: time_to_level(curves[r], level) for r in renderers}
+        cells = [f"{'~' if x else ''}{t:.3f}" if t else "n/a" for t, x in times.values()]
+        glint = times["glint"][0]
+        leads = [f"{'~' if times[r][1] or times['glint'][1] else ''}{times[r][0] / glint:.1f}×" if glint and times[r][0] else "n/a" for r in renderers if r != "glint"]
+        lines.append(f"{name}: {level:g} | " + " | ".join(cells) + " | " + " | ".join(leads))
+    return "\n".join(lines)
+
+
 def plot(name, rows, path):
     import matplotlib
 
@@ -278,13 +314,16 @@ def main():
             rows = []
             spp = 1
             while spp <= args.max_spp:
-                for renderer, render in renderers.items():
-                    # Seeds 0, 1, …: one image each, the means reported (a
-                    # single image's error scatters by tens of percent).
-                    runs = []
-                    for seed in range(max(args.seeds, -(-args.min_samples // spp))):
+                # Seeds 0, 1, …: one image each, the means reported (a
+                # single image's error scatters by tens of percent). The
+                # renderers take turns seed by seed, so that a slow spell
+                # of a shared machine falls on all three alike.
+                runs = {renderer: [] for renderer in renderers}
+                for seed in range(max(args.seeds, -(-args.min_samples // spp))):
+                    for renderer, render in renderers.items():
                         img, t = render(spp, seed)
-                        runs.append((t, *errors(img, refs[renderer]), errors(img, refs["cycles"])[0]))
+                        runs[renderer].append((t, *errors(img, refs[renderer]), errors(img, refs["cycles"])[0]))
+                for renderer, runs in runs.items():
                     t, relmse, rmse, vs_cycles = (float(np.mean(column)) for column in zip(*runs))
                     se = float(np.std([r[1] for r in runs], ddof=1) / math.sqrt(len(runs))) if len(runs) > 1 else float("nan")
                     rows.append({"renderer": renderer, "spp": spp, "seconds": t, "relmse": relmse, "relmse_se": se, "rmse": rmse,
@@ -307,6 +346,7 @@ def main():
                     t = time_to_reach(glint_curve, r["relmse"])
                     speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
                     print(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}")
+            print(clean_image_table(name, rows, list(renderers)), flush=True)
             print(f"{name}: wrote {out / (name + '.csv')} and {out / (name + '.png')}", flush=True)
     except Exception as e:  # noqa: BLE001
         print(f"error: {e}", file=sys.stderr)

@@ -1,0 +1,51 @@
+"""The benchmark's arithmetic (convergence.py): when a curve of error
+against time reaches an error, and the time-to-clean table built on it.
+The benchmark itself prints figures and is no test; these are its sums."""
+
+import math
+
+import pytest
+
+from convergence import CLEAN_LEVELS, clean_image_table, time_to_level, time_to_reach
+
+# Error halving as time doubles: an unbiased estimator's 1/time law.
+CURVE = [(1.0, 0.1), (2.0, 0.05), (4.0, 0.025)]
+
+
+def test_a_level_on_the_curve_is_interpolated_log_log():
+    t, extrapolated = time_to_level(CURVE, 0.07)
+    # On a 1/time curve log–log interpolation is exact: t = 0.1/0.07.
+    assert t == pytest.approx(0.1 / 0.07, rel=1e-9)
+    assert not extrapolated
+
+
+def test_a_level_above_the_first_point_takes_the_first_points_time():
+    assert time_to_level(CURVE, 0.5) == (1.0, False)
+
+
+def test_a_level_below_the_last_point_follows_the_one_over_time_law_and_is_flagged():
+    t, extrapolated = time_to_level(CURVE, 0.001)
+    assert t == pytest.approx(4.0 * 0.025 / 0.001)
+    assert extrapolated
+    # time_to_reach alone stops at the curve's end.
+    assert time_to_reach(CURVE, 0.001) is None
+
+
+def test_an_empty_curve_never_reaches_a_level():
+    assert time_to_level([], 0.01) == (None, False)
+
+
+def test_the_table_gives_each_renderers_time_and_glints_lead():
+    rows = [{"renderer": "glint", "seconds": t, "relmse": e} for t, e in CURVE]
+    # A peer twice as slow for every error, whose curve ends sooner.
+    rows += [{"renderer": "cycles", "seconds": 2 * t, "relmse": e} for t, e in CURVE[:2]]
+    lines = clean_image_table("scene", rows, ["cycles", "glint"]).splitlines()
+    assert len(lines) == 1 + len(CLEAN_LEVELS)
+    by_level = {float(line.split(": ")[1].split(" | ")[0]): line.split(" | ")[1:] for line in lines[1:]}
+    cycles, glint, lead = by_level[0.1]
+    assert (float(cycles), float(glint), lead) == (2.0, 1.0, "2.0×")
+    # 0.03 is past the peer's curve (it ends at 0.05): extrapolated, marked.
+    cycles, glint, lead = by_level[0.03]
+    assert cycles.startswith("~") and not glint.startswith("~")
+    assert math.isclose(float(cycles[1:]), 4.0 * 0.05 / 0.03, rel_tol=1e-3)
+    assert lead.startswith("~")
