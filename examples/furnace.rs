@@ -3,7 +3,7 @@
 //! roughness and viewing angle, estimated from the material's own sampler
 //! (1e6 samples each). Below 1 is energy lost, above 1 energy gained.
 //! `cargo run --release --example furnace`
-use glam::Vec3;
+use glint::Vec3;
 use glint::bsdf::{Bsdf, PrincipledBsdf, SeedBsdf};
 use glint::material::{Material, Surface};
 use glint::rng::Rng;

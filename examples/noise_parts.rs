@@ -17,7 +17,7 @@ use glint::job::{self, JobOptions};
 use glint::render::{render_pass, Film, RenderSettings};
 use glint::request::RenderRequest;
 use glint::strategies::{Strategies, Strategy};
-use glam::Vec3;
+use glint::Vec3;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 

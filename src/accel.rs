@@ -16,7 +16,7 @@
 use crate::scene::Triangle;
 use crate::triangle_pack::{PackRay, TrianglePack};
 use crate::wide_bvh::WideBvh;
-use glam::{Vec3, Vec3A};
+use crate::Vec3;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
@@ -29,14 +29,14 @@ pub const BUILD_PARAMS: BvhBuildParams = BvhBuildParams::medium_build();
 
 #[derive(Clone, Copy, Debug)]
 struct RtTriangle {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
 }
 
 impl From<&Triangle> for RtTriangle {
     fn from(t: &Triangle) -> Self {
-        RtTriangle { v0: t.p[0].into(), e1: (t.p[1] - t.p[0]).into(), e2: (t.p[2] - t.p[0]).into() }
+        RtTriangle { v0: t.p[0], e1: t.p[1] - t.p[0], e2: t.p[2] - t.p[0] }
     }
 }
 
@@ -62,7 +62,7 @@ pub struct Accel {
 
 /// Möller–Trumbore: (t, b1, b2) when the ray hits inside (tmin, tmax).
 #[inline(always)]
-fn intersect(tri: &RtTriangle, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+fn intersect(tri: &RtTriangle, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
     let p = d.cross(tri.e2);
     let det = tri.e1.dot(p);
     if det == 0.0 || !det.is_finite() {
@@ -88,7 +88,7 @@ pub(crate) fn build_cwbvh(triangles: &[Triangle], subset: &[u32]) -> CwBvh {
     let bvh_tris: Vec<obvhs::triangle::Triangle> = subset
         .iter()
         .map(|&i| &triangles[i as usize])
-        .map(|t| obvhs::triangle::Triangle { v0: t.p[0].into(), v1: t.p[1].into(), v2: t.p[2].into() })
+        .map(|t| obvhs::triangle::Triangle { v0: t.p[0], v1: t.p[1], v2: t.p[2] })
         .collect();
     build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut Duration::default())
 }
@@ -196,7 +196,7 @@ impl Accel {
             return None;
         }
         let bvh = build_cwbvh(triangles, &self.ids);
-        let tris = bvh.primitive_indices.iter().map(|&k| triangles[self.ids[k as usize] as usize].p.map(Vec3A::from)).map(|[a, b, c]| obvhs::rt_triangle::RtTriangle::new(a, b, c)).collect();
+        let tris = bvh.primitive_indices.iter().map(|&k| triangles[self.ids[k as usize] as usize].p).map(|[a, b, c]| obvhs::rt_triangle::RtTriangle::new(a, b, c)).collect();
         Some(ObvhsAlone { bvh, tris })
     }
 
@@ -206,7 +206,7 @@ impl Accel {
         for (i, t) in triangles.iter().enumerate() {
             let rt = RtTriangle::from(t);
             let limit = best.map_or(tmax, |b| b.t);
-            if let Some((t, b1, b2)) = intersect(&rt, origin.into(), dir.into(), 0.0, limit) {
+            if let Some((t, b1, b2)) = intersect(&rt, origin, dir, 0.0, limit) {
                 best = Some(Hit { t, triangle: i as u32, b1, b2 });
             }
         }
@@ -225,14 +225,14 @@ impl ObvhsAlone {
     #[inline]
     pub fn closest(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<f32> {
         let mut hit = RayHit::none();
-        let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
+        let ray = Ray::new(o, d, 0.0, tmax);
         self.bvh.ray_traverse(ray, &mut hit, |ray, id| self.tris[id].intersect(ray)).then_some(hit.t)
     }
 
     /// Whether anything lies within (0, tmax).
     #[inline]
     pub fn blocked(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
+        let ray = Ray::new(o, d, 0.0, tmax);
         !self.bvh.ray_traverse_miss(ray, |ray, id| self.tris[id].intersect(ray))
     }
 }

@@ -1,6 +1,7 @@
 //! A glTF perspective camera: it looks down its node's −Z with +Y up.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2};
+use crate::Vec3;
 
 #[derive(Clone, Debug)]
 pub struct Camera {
@@ -22,9 +23,10 @@ impl Camera {
         if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
             return Err(format!("camera '{name}' has yfov {yfov}, which must be in (0, π)"));
         }
-        let position = world.w_axis.truncate();
-        let forward = (-world.z_axis.truncate()).normalize_or_zero();
-        let right = (world.x_axis.truncate() - forward * world.x_axis.truncate().dot(forward)).normalize_or_zero();
+        let position = Vec3::from_vec4(world.w_axis);
+        let forward = (-Vec3::from_vec4(world.z_axis)).normalize_or_zero();
+        let x_axis = Vec3::from_vec4(world.x_axis);
+        let right = (x_axis - forward * x_axis.dot(forward)).normalize_or_zero();
         let up = right.cross(forward);
         if !position.is_finite() || forward == Vec3::ZERO || right == Vec3::ZERO || !up.is_finite() {
             return Err(format!("camera '{name}' has a degenerate or non-finite transform"));
@@ -157,7 +159,7 @@ mod tests {
     /// directions (a corner pixel, where cos θ is smallest).
     #[test]
     fn projection_inverts_rays_and_importance_is_normalised_per_pixel() {
-        let world = Mat4::from_rotation_y(0.4) * Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0));
+        let world = Mat4::from_rotation_y(0.4) * Mat4::from_translation(glam::Vec3::new(1.0, 2.0, 3.0));
         let cam = Camera::from_world("c".into(), &world, 1.2, None).unwrap();
         let lens = cam.lens(64, 48);
         for (x, y) in [(0.5f32, 0.5f32), (10.25, 40.75), (63.9, 0.1), (32.0, 24.0)] {

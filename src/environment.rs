@@ -18,7 +18,8 @@
 use crate::bsdf::luminance;
 use crate::sampling::{cosine_hemisphere, Distribution1D, Frame};
 use crate::texture::{Encoding, Image, Sampler, Texels, Wrap};
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use std::f32::consts::PI;
 use std::path::Path;
 
@@ -57,14 +58,14 @@ impl EnvironmentMap {
         for y in 0..h {
             let sin_theta = (PI * (y as f32 + 0.5) / h as f32).sin();
             for x in 0..w {
-                let c = image.texel(x, y, encoding).truncate();
+                let c = Vec3::from_vec4(image.texel(x, y, encoding));
                 let c = if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO };
                 weights[(y * w + x) as usize] = (luminance(c) * sin_theta) as f64;
                 mean += (c * sin_theta).as_dvec3();
             }
         }
         // ∫ sinθ dθ dφ over the texels = 4π; each texel spans (π/h)(2π/w).
-        let mean = (mean * (2.0 * std::f64::consts::PI * std::f64::consts::PI / (w as f64 * h as f64)) / (4.0 * std::f64::consts::PI)).as_vec3() * strength;
+        let mean = (mean * (2.0 * std::f64::consts::PI * std::f64::consts::PI / (w as f64 * h as f64)) / (4.0 * std::f64::consts::PI)).as_vec3a() * strength;
         let floor = 0.01 * weights.iter().sum::<f64>() / weights.len() as f64;
         let floor = if floor > 0.0 { floor } else { 1.0 };
         let columns: Vec<Distribution1D> = weights.chunks(w as usize).map(|row| Distribution1D::new(row.iter().map(|v| v + floor))).collect();
@@ -98,7 +99,7 @@ impl EnvironmentMap {
 
     /// Radiance arriving from direction `dir` (W·sr⁻¹·m⁻²).
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
-        let c = self.image.sample(self.uv(dir), SAMPLER, self.encoding).truncate() * self.strength;
+        let c = Vec3::from_vec4(self.image.sample(self.uv(dir), SAMPLER, self.encoding)) * self.strength;
         if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO }
     }
 

@@ -232,7 +232,7 @@ impl fmt::Display for Kernel {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
+    use crate::Vec3;
     use super::*;
     use crate::camera::Camera;
     use crate::material::Material;

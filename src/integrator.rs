@@ -65,7 +65,8 @@ use crate::scene::Scene;
 use crate::shading::{self, Barycentric};
 use crate::strategies::Strategy;
 use crate::environment;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 
 pub const RR_START_DEPTH: u32 = 3;
 /// Light vertices z joins, each with a shadow ray (light_paths.rs). On the

@@ -12,7 +12,7 @@ use crate::render::{resolution, RenderSettings};
 use crate::punctual::PunctualKind;
 use crate::request::{LightSize, RenderRequest};
 use crate::scene::Scene;
-use glam::Vec3;
+use crate::Vec3;
 use std::path::Path;
 use std::time::Duration;
 

@@ -11,7 +11,8 @@
 
 use crate::material::Material;
 use crate::scene::{Scene, Triangle};
-use glam::{Mat4, Vec3};
+use glam::Mat4;
+use crate::Vec3;
 use serde::Deserialize;
 use std::f32::consts::PI;
 
@@ -88,7 +89,7 @@ impl AreaLight {
     /// World-space area of the exact shape.
     fn area(&self, m: &Mat4) -> f32 {
         let (sx, sy) = self.extent();
-        let scale = m.x_axis.truncate().cross(m.y_axis.truncate()).length();
+        let scale = Vec3::from_vec4(m.x_axis).cross(Vec3::from_vec4(m.y_axis)).length();
         let shape = match self.shape {
             LampShape::Square | LampShape::Rectangle => 1.0,
             LampShape::Disk | LampShape::Ellipse => PI / 4.0,
@@ -120,7 +121,7 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             continue;
         }
         let radiance = color * (light.power / (PI * area));
-        let front = -m.z_axis.truncate();
+        let front = -Vec3::from_vec4(m.z_axis);
         let material = scene.materials.len() as u32;
         scene.materials.push(Material {
             name: label,
@@ -132,8 +133,8 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             camera_sees_lamp: light.visible_camera,
             ..Material::default()
         });
-        let points: Vec<Vec3> = light.outline().iter().map(|&p| m.transform_point3(p)).collect();
-        let centre = m.transform_point3(Vec3::ZERO);
+        let points: Vec<Vec3> = light.outline().iter().map(|&p| m.transform_point3a(p)).collect();
+        let centre = m.transform_point3a(Vec3::ZERO);
         let fan: Vec<[Vec3; 3]> = match points.len() {
             4 => vec![[points[0], points[1], points[2]], [points[0], points[2], points[3]]],
             n => (0..n).map(|i| [centre, points[i], points[(i + 1) % n]]).collect(),
@@ -175,8 +176,8 @@ mod tests {
     #[test]
     fn every_shape_emits_its_power_from_its_front() {
         // Scaled, rotated and moved, once mirrored in X.
-        let base = Mat4::from_scale_rotation_translation(Vec3::new(2.0, 0.5, 3.0), glam::Quat::from_rotation_x(0.7), Vec3::new(1.0, 2.0, 3.0));
-        for m in [base, base * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))] {
+        let base = Mat4::from_scale_rotation_translation(glam::Vec3::new(2.0, 0.5, 3.0), glam::Quat::from_rotation_x(0.7), glam::Vec3::new(1.0, 2.0, 3.0));
+        for m in [base, base * Mat4::from_scale(glam::Vec3::new(-1.0, 1.0, 1.0))] {
             for (shape, size, area) in [
                 (LampShape::Square, [0.3, 9.0], 0.09),
                 (LampShape::Rectangle, [0.3, 0.2], 0.06),
@@ -191,7 +192,7 @@ mod tests {
                 // Radiance from the exact area: A_world = area × |X × Y| of the transform = area.
                 let le = scene.materials[0].emission.x;
                 assert!((le - 100.0 / (PI * area)).abs() < 1e-3 * le, "{shape:?}: {le}");
-                let front = -m.z_axis.truncate().normalize();
+                let front = -Vec3::from_vec4(m.z_axis).normalize();
                 assert!(scene.triangles.iter().all(|t| t.cross().normalize().dot(front) > 0.999), "{shape:?}");
                 assert!(scene.is_lamp(&scene.triangles[0]));
             }

@@ -32,6 +32,14 @@ pub mod triangle_pack;
 pub mod watch;
 pub mod wide_bvh;
 
+/// Glint's 3-vector: glam's `Vec3A`, whose x, y and z sit in one 16-byte
+/// SIMD register, so that a sum or a product of two vectors is one
+/// instruction rather than three. Against glam's scalar `Vec3` (the same
+/// formulas, images equal to 3·10⁻⁴; callgrind, 96², 4 spp, 1 thread): 9%
+/// fewer instructions on the benchmark's Cornell box and 7% on its gold
+/// sphere, 5% and 2% less time. A triangle takes 96 bytes instead of 72.
+pub type Vec3 = glam::Vec3A;
+
 /// The default scene, compiled into the binary so it renders from anywhere.
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/cornell-box.gltf");
 pub const DEFAULT_SCENE_NAME: &str = "scenes/cornell-box.gltf (embedded)";

@@ -57,7 +57,7 @@ use crate::material::Surface;
 use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::traversal_bench::RayKind;
-use glam::Vec3;
+use crate::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::Range;

@@ -30,7 +30,7 @@ use crate::light_paths::LightVertex;
 use crate::rng::Rng;
 use crate::strategies::{Strategies, Strategy};
 use crate::sampling::Frame;
-use glam::Vec3;
+use crate::Vec3;
 
 /// Light added to one pixel by one light vertex.
 #[derive(Clone, Copy, Debug)]

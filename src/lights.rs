@@ -31,7 +31,8 @@ use crate::shading::{self, Barycentric};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
 use crate::spherical_triangle::{self, SphericalTriangle};
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 
 pub struct Lights {
     /// Scene triangle index of each emitter; the distribution's entries

@@ -330,7 +330,7 @@ fn inspect(path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn write_outputs(exr: &Path, png: Option<&Path>, width: u32, height: u32, pixels: &[glam::Vec3]) -> Result<()> {
+fn write_outputs(exr: &Path, png: Option<&Path>, width: u32, height: u32, pixels: &[glint::Vec3]) -> Result<()> {
     output::write_exr(exr, width, height, pixels)?;
     if let Some(png) = png {
         output::write_png(png, width, height, pixels)?;

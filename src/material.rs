@@ -1,7 +1,7 @@
 //! A material as plain data: glTF pbrMetallicRoughness factors and emission.
 
 use crate::texture::TextureSlot;
-use glam::Vec3;
+use crate::Vec3;
 
 /// What a BSDF needs of a material at one point: its factors, with any
 /// textures and vertex colours already applied (shading.rs).

@@ -3,7 +3,7 @@
 //! write never destroys the previous one.
 
 use anyhow::{bail, Context as _, Result};
-use glam::Vec3;
+use crate::Vec3;
 use std::path::{Path, PathBuf};
 
 fn temp_path(path: &Path) -> PathBuf {

@@ -74,7 +74,7 @@ impl Parallelogram {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
+    use crate::Vec3;
 
     fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
         Triangle { p: [a, b, c], n: [Vec3::Z; 3], material: 0 }

@@ -30,7 +30,8 @@
 //! reaches a light, and its samples take the full weight.
 
 use crate::sampling::{concentric_disk, Frame};
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use std::f32::consts::PI;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,7 +128,7 @@ impl PunctualLight {
             // is subtended).
             let n = -to_light / d;
             let frame = Frame::from_normal(n);
-            let q = self.position + frame.to_world((concentric_disk(u) * r).extend(0.0));
+            let q = self.position + frame.to_world(Vec3::from((concentric_disk(u) * r).extend(0.0)));
             let to_q = q - p;
             let t2 = to_q.length_squared();
             let t = t2.sqrt();

@@ -1,6 +1,7 @@
 //! Sampling routines and the local shading frame. Local frame: the normal is +z.
 
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// An orthonormal basis around a unit normal (Duff et al. 2017, branchless).

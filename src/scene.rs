@@ -6,7 +6,8 @@ use crate::environment::EnvironmentMap;
 use crate::material::Material;
 use crate::punctual::PunctualLight;
 use crate::texture::Image;
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec4};
+use crate::Vec3;
 
 /// Axis-aligned bounds (min, max) of triangles; min > max when there are none.
 pub fn bounds(triangles: &[Triangle]) -> (Vec3, Vec3) {

@@ -7,7 +7,8 @@
 use crate::material::{AlphaMode, Material, Surface};
 use crate::scene::Scene;
 use crate::texture::Encoding;
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec4};
+use crate::Vec3;
 use std::ops::{Add, Mul};
 
 /// Barycentric weights (b0, b1, b2) of a hit on a triangle.
@@ -49,11 +50,11 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
     if !varies(scene, m) {
         return s;
     }
-    s.base_color *= vertex_color(scene, triangle, b).truncate();
+    s.base_color *= Vec3::from_vec4(vertex_color(scene, triangle, b));
     if let Some(t) = &m.textures {
         let uv = texture_coordinates(scene, triangle, b);
         if let Some(slot) = &t.base_color {
-            s.base_color *= slot.sample(&scene.images, &uv, Encoding::Srgb).truncate();
+            s.base_color *= Vec3::from_vec4(slot.sample(&scene.images, &uv, Encoding::Srgb));
         }
         if let Some(slot) = &t.metallic_roughness {
             let mr = slot.sample(&scene.images, &uv, Encoding::Linear);
@@ -76,7 +77,7 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
 pub fn emission_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric, front_face: bool) -> Vec3 {
     let le = m.emitted(front_face);
     match m.textures.as_ref().and_then(|t| t.emissive.as_ref()) {
-        Some(slot) if le != Vec3::ZERO => le * slot.sample(&scene.images, &texture_coordinates(scene, triangle, b), Encoding::Srgb).truncate(),
+        Some(slot) if le != Vec3::ZERO => le * Vec3::from_vec4(slot.sample(&scene.images, &texture_coordinates(scene, triangle, b), Encoding::Srgb)),
         _ => le,
     }
 }
@@ -120,13 +121,14 @@ pub fn mapped_normal(scene: &Scene, m: &Material, triangle: u32, b: Barycentric,
     let t4 = b.mix(corners);
     let sign = if t4.w < 0.0 { -1.0 } else { 1.0 };
     // Gram-Schmidt: the interpolated tangent is not quite orthogonal to n.
-    let t = (t4.truncate() - n * n.dot(t4.truncate())).normalize_or_zero();
+    let t3 = Vec3::from_vec4(t4);
+    let t = (t3 - n * n.dot(t3)).normalize_or_zero();
     if t == Vec3::ZERO {
         return n;
     }
     let bitangent = sign * n.cross(t);
     let texel = slot.sample(&scene.images, &texture_coordinates(scene, triangle, b), Encoding::Linear);
-    let v = (texel.truncate() * 2.0 - Vec3::ONE) * Vec3::new(*scale, *scale, 1.0);
+    let v = (Vec3::from_vec4(texel) * 2.0 - Vec3::ONE) * Vec3::new(*scale, *scale, 1.0);
     let mapped = (t * v.x + bitangent * v.y + n * v.z).normalize_or_zero();
     if mapped.is_finite() && mapped != Vec3::ZERO { mapped } else { n }
 }

@@ -8,7 +8,8 @@
 //! one). Drawn by solid angle, the density is 1/Ω and only the cosines at
 //! the two ends are left in the estimate.
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec2};
+use crate::Vec3;
 
 /// Kept in double precision: seen from 1 m under a 20 km ceiling, two
 /// corners lie 1e-4 rad from opposite points of the horizon, and in single
@@ -76,7 +77,7 @@ impl SphericalTriangle {
         // Uniform in solid angle along the arc from b to ĉ.
         let z = 1.0 - u.y as f64 * (1.0 - c_hat.dot(b));
         let w = z * b + (1.0 - z * z).max(0.0).sqrt() * orthogonal_part(c_hat, b);
-        w.normalize_or_zero().as_vec3()
+        w.normalize_or_zero().as_vec3a()
     }
 }
 

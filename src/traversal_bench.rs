@@ -10,7 +10,7 @@
 //! area lights, when a scene has one, is left out.
 
 use crate::integrator::{Context, RayCounts};
-use glam::Vec3;
+use crate::Vec3;
 use std::hint::black_box;
 use std::sync::Mutex;
 use std::time::Instant;

@@ -3,7 +3,8 @@
 //!
 //! An unused lane has a zero edge: its determinant is 0 and it never hits.
 
-use glam::{Vec3, Vec4};
+use glam::Vec4;
+use crate::Vec3;
 
 #[derive(Clone, Copy, Debug)]
 pub struct TrianglePack {

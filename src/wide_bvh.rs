@@ -15,7 +15,8 @@
 //! with the ray's tmin at 0 and the exit widened by 1 + 2γ(3) (Ize 2013),
 //! so a hit exactly on a box face is never culled by rounding.
 
-use glam::{Vec3, Vec4};
+use glam::Vec4;
+use crate::Vec3;
 use std::mem::MaybeUninit;
 use obvhs::cwbvh::CwBvh;
 

@@ -120,7 +120,7 @@ fn the_features_line_and_the_general_kernel() {
         assert_eq!(line, format!("features: diffuse, emitters=1 (2 tris), one-sided emission; {kernel}"));
         images.push(glint::output::read_exr(&exr).unwrap().2);
     }
-    let bits = |img: &[glam::Vec3]| img.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    let bits = |img: &[glint::Vec3]| img.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
     assert!(bits(&images[0]) == bits(&images[1]), "the general kernel's pixels differ");
     let o = glint(&["render", scene.to_str().unwrap(), "--features", "some"]);
     assert!(!o.status.success() && stderr(&o).contains("--features"));

@@ -4,7 +4,7 @@
 mod common;
 
 use common::{mean_and_standard_error, render, settings};
-use glam::Vec3;
+use glint::Vec3;
 use glint::integrator::Context;
 use glint::material::Material;
 use glint::render::RenderSettings;

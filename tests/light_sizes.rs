@@ -7,7 +7,7 @@
 mod common;
 
 use common::{channel_mean, horizontal_quad, look_at, render, settings};
-use glam::Vec3;
+use glint::Vec3;
 use glint::job::{prepare, JobOptions, SceneExtras};
 use glint::material::Material;
 use glint::punctual::{PunctualKind, PunctualLight};

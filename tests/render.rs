@@ -4,7 +4,7 @@
 mod common;
 
 use common::{closed_box, mean_and_standard_error, region_mean, render, settings};
-use glam::Vec3;
+use glint::Vec3;
 use glint::integrator::Context;
 use glint::loader::{load_bytes, LoadOptions};
 use glint::render::{render_pass, Film, RenderSettings};
@@ -167,7 +167,7 @@ fn an_area_light_lights_the_floor_as_its_power_says_and_is_invisible_from_behind
     // Blender's lamp emits along its local −Z. An unrotated lamp in Blender
     // points down; the addon's Z-up → Y-up turn (−90° about X) makes that
     // world −Y, as here.
-    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, h, 0.0));
+    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, h, 0.0));
     let request = format!(
         r#"{{"area_lights": [{{"name": "Disk", "shape": "DISK", "size": [{}, 0], "matrix": {:?}, "color": [1, 1, 1], "power": {power}}}]}}"#,
         2.0 * r,
@@ -214,7 +214,7 @@ fn a_world_and_a_lamp_add_up_whatever_the_world_is_picked_with() {
         common::look_at(Vec3::new(0.0, 3.0, 0.0), Vec3::ZERO, 0.01),
     );
     scene.background = Vec3::splat(sky);
-    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, h, 0.0));
+    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, h, 0.0));
     let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false };
     glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
     let l = power / (std::f32::consts::PI * std::f32::consts::PI * r * r);
@@ -249,7 +249,7 @@ fn direct_light_only_weighs_both_strategies_at_the_last_vertex() {
         common::look_at(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, 0.6),
     );
     scene.background = Vec3::splat(sky);
-    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, h, 0.0));
+    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, h, 0.0));
     let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false };
     glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
     // The noise of a pixel, from the difference of two seeds' images; the
@@ -352,7 +352,7 @@ fn specialised_kernels_render_the_general_kernels_image() {
     let mut point = floor(diffuse("floor", 0.5));
     point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false });
     let mut lamp = floor(metal.clone());
-    let m = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, 1.0, 0.0));
+    let m = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, 1.0, 0.0));
     let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0, visible_camera: false };
     glint::lamps::add_area_lights(&mut lamp, &[light]).unwrap();
     let cornell = load_bytes(glint::DEFAULT_SCENE.as_bytes(), None, "cornell", &LoadOptions::default()).unwrap();

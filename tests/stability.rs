@@ -5,7 +5,7 @@
 mod common;
 
 use common::*;
-use glam::Vec3;
+use glint::Vec3;
 use glint::material::Material;
 use glint::render::RenderSettings;
 use glint::scene::Scene;

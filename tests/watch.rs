@@ -124,7 +124,7 @@ fn a_changed_scene_renders_again_and_the_image_follows_it() {
     put(&dir, "request.json", &request("second", r#", "samples": 4"#));
     d.wait_for("done second", done("second"));
     let (_, _, second) = glint::output::read_exr(&dir.join("render.exr")).unwrap();
-    let mean = |img: &[glam::Vec3]| img.iter().map(|p| p.element_sum() as f64).sum::<f64>();
+    let mean = |img: &[glint::Vec3]| img.iter().map(|p| p.element_sum() as f64).sum::<f64>();
     let ratio = mean(&second) / mean(&first);
     assert!((ratio - 2.0).abs() < 1e-3, "ratio {ratio}");
     let status: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("status.json")).unwrap()).unwrap();

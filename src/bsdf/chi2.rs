@@ -3,7 +3,8 @@
 //! sphere, integrate the pdf numerically over the same bins, and compare.
 
 use crate::rng::Rng;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use std::f64::consts::PI;
 
 pub struct Chi2Result {

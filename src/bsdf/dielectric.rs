@@ -31,7 +31,8 @@ use super::ggx::d;
 use super::microfacet::{fresnel_dielectric, g1, g2, sample_visible_normal};
 use super::{baked, BsdfSample, SMOOTH_ALPHA_SQ};
 use crate::rng::Rng;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use rayon::prelude::*;
 use std::sync::OnceLock;
 

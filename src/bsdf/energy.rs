@@ -24,7 +24,8 @@ use super::microfacet::{fresnel_dielectric, g1, g2, sample_visible_normal};
 use super::{baked, SMOOTH_ALPHA_SQ};
 use crate::rng::Rng;
 use rayon::prelude::*;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use std::sync::OnceLock;
 
 const N: usize = 32;

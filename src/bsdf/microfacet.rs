@@ -11,7 +11,8 @@
 //! small cosine.
 
 use super::ggx;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use std::f32::consts::PI;
 
 /// Smith's Λ for GGX. α² tan²θ is formed as α²(x² + y²)/z², exact for tiny

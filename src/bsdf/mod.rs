@@ -21,7 +21,8 @@
 
 use crate::material::Surface;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 use std::f32::consts::PI;
 
 /// One sampled direction (pbrt's BSDFSample).

@@ -27,7 +27,8 @@ use super::energy::{ms_fraction, ms_scale, tables, TableRow, DIELECTRIC_ETA};
 use super::microfacet::{self, fresnel_dielectric, schlick_average};
 use super::{fresnel_schlick, lambert, luminance, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
 use crate::material::Surface;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 
 #[derive(Clone, Copy, Debug)]
 pub struct PrincipledBsdf {

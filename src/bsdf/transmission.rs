@@ -11,7 +11,8 @@ use super::dielectric::Dielectric;
 use super::microfacet::eta_from_f0;
 use super::{Bsdf, BsdfSample};
 use crate::material::Surface;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use crate::Vec3;
 
 #[derive(Clone, Copy, Debug)]
 pub struct WithGlass<B> {

@@ -15,7 +15,8 @@ use crate::material::{AlphaMode, Material, MaterialTextures};
 use crate::punctual::{PunctualKind, PunctualLight};
 use crate::scene::{Scene, Triangle, VertexAttributes};
 use accessor::{read_floats, read_indices, BinChunk, Buffers, FloatData};
-use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec4};
+use crate::Vec3;
 use images::{ImageCache, TextureRef};
 pub use images::decode as decode_image;
 use gltf::json::accessor::Type;
@@ -246,9 +247,9 @@ fn local_transform(node: &gltf::json::scene::Node) -> Mat4 {
     if let Some(m) = node.matrix {
         return Mat4::from_cols_array(&m);
     }
-    let t = node.translation.map_or(Vec3::ZERO, Vec3::from);
+    let t = node.translation.map_or(glam::Vec3::ZERO, glam::Vec3::from);
     let r = node.rotation.map_or(Quat::IDENTITY, |q| Quat::from_array(q.0));
-    let s = node.scale.map_or(Vec3::ONE, Vec3::from);
+    let s = node.scale.map_or(glam::Vec3::ONE, glam::Vec3::from);
     // The file's quaternion need not be exactly unit length.
     let r = if r.length_squared() > 0.0 && r.is_finite() { r.normalize() } else { r };
     Mat4::from_scale_rotation_translation(s, r, t)
@@ -381,8 +382,8 @@ impl<'a> Builder<'a> {
             }
         };
         let intensity = Vec3::from(light.color.map(|c| finite_or(c, 1.0).max(0.0))) * finite_or(light.intensity, 1.0).max(0.0);
-        let position = world.w_axis.truncate();
-        let direction = (-world.z_axis.truncate()).normalize_or_zero();
+        let position = Vec3::from_vec4(world.w_axis);
+        let direction = (-Vec3::from_vec4(world.z_axis)).normalize_or_zero();
         if !position.is_finite() || direction == Vec3::ZERO || !intensity.is_finite() {
             self.stats.bad_lights += 1;
             return;
@@ -522,7 +523,7 @@ impl<'a> Builder<'a> {
                     order.swap(1, 2);
                     corners.swap(1, 2);
                 }
-                let p = order.map(|i| world.transform_point3(Vec3::from(positions.get3(i))));
+                let p = order.map(|i| world.transform_point3a(Vec3::from(positions.get3(i))));
                 if !p.iter().all(|v| v.is_finite()) {
                     self.stats.non_finite += 1;
                     continue;

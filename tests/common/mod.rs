@@ -2,7 +2,8 @@
 //! code, small geometry builders and image error measures.
 #![allow(dead_code)] // each test file uses its own subset
 
-use glam::{Mat4, Vec3};
+use glam::Mat4;
+use glint::Vec3;
 use glint::camera::Camera;
 use glint::integrator::Context;
 use glint::material::Material;
@@ -150,6 +151,6 @@ pub fn closed_box(albedo: f32, emission: f32) -> Scene {
         lamp: false,
         ..Material::default()
     };
-    let camera = Camera::from_world("inside".into(), &Mat4::from_translation(Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
+    let camera = Camera::from_world("inside".into(), &Mat4::from_translation(glam::Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
     Scene::new(triangles, vec![material], camera)
 }
