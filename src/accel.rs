@@ -125,14 +125,17 @@ impl Accel {
     }
 
     /// Closest hit along a unit-direction ray within (0, tmax).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
         self.intersect_where(origin, dir, tmax, |_, _, _| true)
     }
 
     /// Closest hit that `stops(triangle, b1, b2)` accepts: surfaces with
     /// alpha let some rays through, decided as the traversal meets them.
-    #[inline]
+    /// Always inlined: where the compiler called it instead, the render took
+    /// 0.6–0.8% more instructions and the replayed camera rays (`--traversal`)
+    /// ran at 15.6 Mrays/s against 16.9.
+    #[inline(always)]
     pub fn intersect_where(&self, origin: Vec3, dir: Vec3, tmax: f32, mut stops: impl FnMut(u32, f32, f32) -> bool) -> Option<Hit> {
         let ray = PackRay::new(origin, dir);
         let mut best: Option<Hit> = None;
