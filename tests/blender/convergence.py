@@ -172,6 +172,11 @@ def errors(img, ref):
     return relmse, rmse
 
 
+def curve_of(rows, renderer):
+    """A renderer's (seconds, relMSE) points from the benchmark's rows."""
+    return [(row["seconds"], row["relmse"]) for row in rows if row["renderer"] == renderer]
+
+
 def time_to_reach(curve, target):
     """Seconds at which a (seconds, error) curve reaches `target`, by
     log–log interpolation; None when it never does within the curve."""
@@ -207,7 +212,7 @@ def clean_image_table(name, rows, renderers):
     error, and Glint's lead over each peer there: the time a user waits
     for a clean image. A time past a curve's last point is extrapolated
     (marked ~)."""
-    curves = {r: [(row["seconds"], row["relmse"]) for row in rows if row["renderer"] == r] for r in renderers}
+    curves = {r: curve_of(rows, r) for r in renderers}
     lines = [f"{name}: time to relMSE | " + " | ".join(f"{r} s" for r in renderers) + " | " + " | ".join(f"over {r}" for r in renderers if r != "glint")]
     for level in CLEAN_LEVELS:
         times = {r: time_to_level(curves[r], level) for r in renderers}
@@ -226,7 +231,7 @@ def plot(name, rows, path):
 
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
     for renderer, style in (("glint", "o-"), ("cycles", "s--"), ("mitsuba", "^:")):
-        pts = [(r["seconds"], r["relmse"]) for r in rows if r["renderer"] == renderer]
+        pts = curve_of(rows, renderer)
         if not pts:
             continue
         ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, label=renderer.capitalize())
@@ -323,9 +328,9 @@ def main():
                     for renderer, render in renderers.items():
                         img, t = render(spp, seed)
                         runs[renderer].append((t, *errors(img, refs[renderer]), errors(img, refs["cycles"])[0]))
-                for renderer, runs in runs.items():
-                    t, relmse, rmse, vs_cycles = (float(np.mean(column)) for column in zip(*runs))
-                    se = float(np.std([r[1] for r in runs], ddof=1) / math.sqrt(len(runs))) if len(runs) > 1 else float("nan")
+                for renderer, images in runs.items():
+                    t, relmse, rmse, vs_cycles = (float(np.mean(column)) for column in zip(*images))
+                    se = float(np.std([r[1] for r in images], ddof=1) / math.sqrt(len(images))) if len(images) > 1 else float("nan")
                     rows.append({"renderer": renderer, "spp": spp, "seconds": t, "relmse": relmse, "relmse_se": se, "rmse": rmse,
                                  "relmse_vs_cycles": vs_cycles})
                 spp *= 2
@@ -339,7 +344,7 @@ def main():
                     bias = ref.reshape(-1, 3).mean(axis=0) / refs["cycles"].reshape(-1, 3).mean(axis=0) - 1
                     print(f"{name}: {renderer} bias against Cycles' reference (R, G, B): {np.round(bias * 100, 2)} %")
             print(f"{name}: Glint {stats['mrays']:.1f} Mrays/s at {args.max_spp} spp, peak RSS {stats['memory']}")
-            glint_curve = [(r["seconds"], r["relmse"]) for r in rows if r["renderer"] == "glint"]
+            glint_curve = curve_of(rows, "glint")
             for peer in [p for p in renderers if p != "glint"]:
                 print(f"{name}: spp | {peer} s | {peer} relMSE | Glint s to that error | speed-up")
                 for r in (r for r in rows if r["renderer"] == peer):
