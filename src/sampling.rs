@@ -4,12 +4,15 @@ use glam::Vec2;
 use crate::Vec3;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
-/// An orthonormal basis around a unit normal (Duff et al. 2017, branchless).
+/// An orthonormal basis (t, b, n) around a unit normal n (Duff et al.
+/// 2017, branchless), kept as the rows of the matrix whose columns are t,
+/// b and n: a shading point turns directions into its frame several times
+/// (light sample, connections, reverse pdfs) and out of it once, and with
+/// rows `to_local` is three lane-wise products and two sums instead of
+/// three dot products, with the same sums in the same order.
 #[derive(Clone, Copy, Debug)]
 pub struct Frame {
-    pub t: Vec3,
-    pub b: Vec3,
-    pub n: Vec3,
+    rows: [Vec3; 3],
 }
 
 impl Frame {
@@ -17,21 +20,28 @@ impl Frame {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
         let b = n.x * n.y * a;
+        // t = (1 + s·x²·a, s·b, −s·x), b = (b, s + y²·a, −y).
         Frame {
-            t: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-            b: Vec3::new(b, sign + n.y * n.y * a, -n.y),
-            n,
+            rows: [
+                Vec3::new(1.0 + sign * n.x * n.x * a, b, n.x),
+                Vec3::new(sign * b, sign + n.y * n.y * a, n.y),
+                Vec3::new(-sign * n.x, -n.y, n.z),
+            ],
         }
     }
 
+    /// (v·t, v·b, v·n).
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
-        Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
+        let [x, y, z] = self.rows;
+        x * v.x + y * v.y + z * v.z
     }
 
+    /// t·v.x + b·v.y + n·v.z.
     #[inline]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
-        self.t * v.x + self.b * v.y + self.n * v.z
+        let [x, y, z] = self.rows;
+        Vec3::new(x.dot(v), y.dot(v), z.dot(v))
     }
 }
 
@@ -132,8 +142,9 @@ mod tests {
     fn frame_is_orthonormal_for_awkward_normals() {
         for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.0, -1e-8, -1.0).normalize(), Vec3::new(1.0, 2.0, -3.0).normalize()] {
             let f = Frame::from_normal(n);
-            assert!((f.t.length() - 1.0).abs() < 1e-5 && (f.b.length() - 1.0).abs() < 1e-5);
-            assert!(f.t.dot(f.b).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5 && f.b.dot(n).abs() < 1e-5);
+            let (t, b) = (f.to_world(Vec3::X), f.to_world(Vec3::Y));
+            assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5 && (f.to_world(Vec3::Z) - n).length() < 1e-6);
+            assert!(t.dot(b).abs() < 1e-5 && t.dot(n).abs() < 1e-5 && b.dot(n).abs() < 1e-5);
             let v = Vec3::new(0.3, -0.5, 0.8);
             assert!((f.to_local(f.to_world(v)) - v).length() < 1e-5);
         }
