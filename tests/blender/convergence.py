@@ -172,6 +172,29 @@ def errors(img, ref):
     return relmse, rmse
 
 
+def black_relmse(ref):
+    """The relMSE of an all-black image against `ref`: mean(ref²/(ref² +
+    ε)). An image with more error than this shows less of the scene than
+    none at all, so the error levels above it say little of what a user
+    sees: on a dim scene (a Cornell box, much of it in shade) it is well
+    below 1."""
+    return errors(np.zeros_like(ref), ref)[0]
+
+
+def peer_rows(name, peer, rows, glint_curve, black):
+    """One line a peer's point: its seconds and error, the seconds
+    Glint's curve takes to that error and the speed-up, marked where the
+    point's error is above a black image's (`black`, against the peer's
+    own reference)."""
+    lines = [f"{name}: spp | {peer} s | {peer} relMSE | Glint s to that error | speed-up"]
+    for r in (r for r in rows if r["renderer"] == peer):
+        t = time_to_reach(glint_curve, r["relmse"])
+        speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
+        mark = " (above a black image's error)" if r["relmse"] > black else ""
+        lines.append(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}{mark}")
+    return "\n".join(lines)
+
+
 def curve_of(rows, renderer):
     """A renderer's (seconds, relMSE) points from the benchmark's rows."""
     return [(row["seconds"], row["relmse"]) for row in rows if row["renderer"] == renderer]
@@ -223,7 +246,7 @@ def clean_image_table(name, rows, renderers):
     return "\n".join(lines)
 
 
-def plot(name, rows, path):
+def plot(name, rows, path, black=None):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -235,6 +258,8 @@ def plot(name, rows, path):
         if not pts:
             continue
         ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, label=renderer.capitalize())
+    if black is not None:
+        ax.axhline(black, color="grey", linewidth=0.8, linestyle="-.", label="an all-black image")
     ax.set_xlabel("rendering time (s)")
     ax.set_ylabel("relative MSE (ε = 0.01)")
     ax.set_title(f"{name}: error against time")
@@ -338,7 +363,9 @@ def main():
                 w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "relmse", "relmse_se", "rmse", "relmse_vs_cycles"])
                 w.writeheader()
                 w.writerows(rows)
-            plot(name, rows, out / f"{name}.png")
+            blacks = {renderer: black_relmse(ref) for renderer, ref in refs.items()}
+            plot(name, rows, out / f"{name}.png", blacks["cycles"])
+            print(f"{name}: an all-black image's relMSE: " + ", ".join(f"{blacks[r]:.3f} against {r}'s reference" for r in renderers))
             for renderer, ref in refs.items():
                 if renderer != "cycles":
                     bias = ref.reshape(-1, 3).mean(axis=0) / refs["cycles"].reshape(-1, 3).mean(axis=0) - 1
@@ -346,11 +373,7 @@ def main():
             print(f"{name}: Glint {stats['mrays']:.1f} Mrays/s at {args.max_spp} spp, peak RSS {stats['memory']}")
             glint_curve = curve_of(rows, "glint")
             for peer in [p for p in renderers if p != "glint"]:
-                print(f"{name}: spp | {peer} s | {peer} relMSE | Glint s to that error | speed-up")
-                for r in (r for r in rows if r["renderer"] == peer):
-                    t = time_to_reach(glint_curve, r["relmse"])
-                    speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
-                    print(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}")
+                print(peer_rows(name, peer, rows, glint_curve, blacks[peer]))
             print(clean_image_table(name, rows, list(renderers)), flush=True)
             print(f"{name}: wrote {out / (name + '.csv')} and {out / (name + '.png')}", flush=True)
     except Exception as e:  # noqa: BLE001

@@ -6,7 +6,9 @@ import math
 
 import pytest
 
-from convergence import CLEAN_LEVELS, clean_image_table, time_to_level, time_to_reach
+import numpy as np
+
+from convergence import CLEAN_LEVELS, black_relmse, clean_image_table, peer_rows, time_to_level, time_to_reach
 
 # Error halving as time doubles: an unbiased estimator's 1/time law.
 CURVE = [(1.0, 0.1), (2.0, 0.05), (4.0, 0.025)]
@@ -49,3 +51,19 @@ def test_the_table_gives_each_renderers_time_and_glints_lead():
     assert cycles.startswith("~") and not glint.startswith("~")
     assert math.isclose(float(cycles[1:]), 4.0 * 0.05 / 0.03, rel_tol=1e-3)
     assert lead.startswith("~")
+
+
+def test_a_black_images_error_is_the_mean_of_ref_squared_over_ref_squared_plus_epsilon():
+    ref = np.array([[[0.0, 0.1, 1.0]]])
+    # 0, 0.01/0.02 and 1/1.01 averaged.
+    assert black_relmse(ref) == pytest.approx((0.0 + 0.5 + 1 / 1.01) / 3)
+
+
+def test_a_peers_point_above_a_black_images_error_is_marked():
+    rows = [{"renderer": "glint", "spp": 1, "seconds": t, "relmse": e} for t, e in CURVE]
+    rows += [{"renderer": "mitsuba", "spp": spp, "seconds": 0.5 * spp, "relmse": e} for spp, e in ((1, 0.4), (2, 0.2))]
+    lines = peer_rows("scene", "mitsuba", rows, CURVE, black=0.3).splitlines()
+    assert len(lines) == 3
+    assert lines[1].endswith("(above a black image's error)") and "n/a" not in lines[1]
+    # 0.2 is below the black image's 0.3, and Glint's curve (from 0.1 at 1 s) is there first: 1/1 = 1.0×.
+    assert lines[2].endswith("1.0×")
