@@ -36,7 +36,7 @@ struct RtTriangle {
 
 impl From<&Triangle> for RtTriangle {
     fn from(t: &Triangle) -> Self {
-        RtTriangle { v0: t.p[0], e1: t.p[1] - t.p[0], e2: t.p[2] - t.p[0] }
+        RtTriangle { v0: t.p()[0], e1: t.p()[1] - t.p()[0], e2: t.p()[2] - t.p()[0] }
     }
 }
 
@@ -88,7 +88,7 @@ pub(crate) fn build_cwbvh(triangles: &[Triangle], subset: &[u32]) -> CwBvh {
     let bvh_tris: Vec<obvhs::triangle::Triangle> = subset
         .iter()
         .map(|&i| &triangles[i as usize])
-        .map(|t| obvhs::triangle::Triangle { v0: t.p[0], v1: t.p[1], v2: t.p[2] })
+        .map(|t| obvhs::triangle::Triangle { v0: t.p()[0], v1: t.p()[1], v2: t.p()[2] })
         .collect();
     build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut Duration::default())
 }
@@ -108,14 +108,14 @@ impl Accel {
             return (Accel { bvh: WideBvh::empty(), packs: Vec::new(), pack_ids: Vec::new(), ids: Vec::new() }, start.elapsed());
         }
         let cwbvh = build_cwbvh(triangles, subset);
-        let corners: Vec<[Vec3; 3]> = subset.iter().map(|&i| triangles[i as usize].p).collect();
+        let corners: Vec<[Vec3; 3]> = subset.iter().map(|&i| triangles[i as usize].p()).collect();
         let bvh = WideBvh::from_cwbvh(&cwbvh, &corners);
         let ids: Vec<u32> = cwbvh.primitive_indices.iter().map(|&i| subset[i as usize]).collect();
         let (mut packs, mut pack_ids) = (Vec::with_capacity(bvh.leaves.len()), Vec::with_capacity(bvh.leaves.len()));
         for &(first, count) in &bvh.leaves {
             let leaf = &ids[first as usize..(first + count) as usize];
             let mut corners = [[Vec3::ZERO; 3]; 4];
-            leaf.iter().zip(&mut corners).for_each(|(&i, c)| *c = triangles[i as usize].p);
+            leaf.iter().zip(&mut corners).for_each(|(&i, c)| *c = triangles[i as usize].p());
             packs.push(TrianglePack::new(&corners[..leaf.len()]));
             let mut lanes = [u32::MAX; 4];
             lanes[..leaf.len()].copy_from_slice(leaf);
@@ -199,7 +199,7 @@ impl Accel {
             return None;
         }
         let bvh = build_cwbvh(triangles, &self.ids);
-        let tris = bvh.primitive_indices.iter().map(|&k| triangles[self.ids[k as usize] as usize].p).map(|[a, b, c]| obvhs::rt_triangle::RtTriangle::new(a, b, c)).collect();
+        let tris = bvh.primitive_indices.iter().map(|&k| triangles[self.ids[k as usize] as usize].p()).map(|[a, b, c]| obvhs::rt_triangle::RtTriangle::new(a, b, c)).collect();
         Some(ObvhsAlone { bvh, tris })
     }
 
@@ -246,7 +246,7 @@ mod tests {
     use crate::rng::Rng;
 
     fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
-        Triangle { p: [a, b, c], n: [Vec3::Z; 3], material: 0 }
+        Triangle::new([a, b, c], [Vec3::Z; 3], 0)
     }
 
     fn random_soup(n: usize, rng: &mut Rng) -> Vec<Triangle> {
@@ -322,7 +322,7 @@ mod tests {
             let mut rng = Rng::new(3, 4);
             let scene: Vec<Triangle> = random_soup(500, &mut rng)
                 .into_iter()
-                .map(|t| tri(t.p[0] * scale + Vec3::splat(shift), t.p[1] * scale + Vec3::splat(shift), t.p[2] * scale + Vec3::splat(shift)))
+                .map(|t| tri(t.p()[0] * scale + Vec3::splat(shift), t.p()[1] * scale + Vec3::splat(shift), t.p()[2] * scale + Vec3::splat(shift)))
                 .collect();
             let rays: Vec<_> = (0..1000)
                 .map(|_| {

@@ -239,7 +239,7 @@ mod tests {
     use crate::scene::Triangle;
 
     fn scene(materials: Vec<Material>) -> Scene {
-        let tri = |material: u32| Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], n: [Vec3::Z; 3], material };
+        let tri = |material: u32| Triangle::new([Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z; 3], material);
         let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
         let triangles = (0..materials.len() as u32).map(tri).collect();
         Scene::new(triangles, materials, camera)

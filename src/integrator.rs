@@ -274,11 +274,11 @@ impl SurfaceHit {
         let tri = &scene.triangles[hit.triangle as usize];
         let material = &scene.materials[tri.material as usize];
         let b = Barycentric::new(hit.b1, hit.b2);
-        let (p, p_error) = point_on_triangle(&tri.p, hit.b1, hit.b2);
+        let (p, p_error) = point_on_triangle(&tri.p(), hit.b1, hit.b2);
         let face = tri.cross().normalize();
         let front_face = face.dot(dir) < 0.0;
         let ng = if front_face { face } else { -face };
-        let mut ns = b.mix(&tri.n).normalize_or_zero();
+        let mut ns = b.mix(&tri.n()).normalize_or_zero();
         if ns != Vec3::ZERO {
             ns = shading::mapped_normal(scene, material, hit.triangle, b, ns);
         }
@@ -664,7 +664,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if le == Vec3::ZERO || f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let (_, light_error) = point_on_triangle(&light_tri.p, ls.b1, ls.b2);
+    let (_, light_error) = point_on_triangle(&light_tri.p(), ls.b1, ls.b2);
     if !unblocked(ctx, si, wi, ls.point, light_error, ls.normal, ls.triangle, rng, rays) {
         return Vec3::ZERO;
     }
@@ -931,7 +931,7 @@ mod tests {
     /// is prepared.
     #[test]
     fn prepared_materials_give_the_bsdf_a_hit_builds() {
-        let tri = Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], n: [Vec3::Z; 3], material: 0 };
+        let tri = Triangle::new([Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z; 3], 0);
         let materials = vec![
             Material { base_color: Vec3::new(0.8, 0.3, 0.1), metallic: 0.3, roughness: 0.4, ior: 1.45, ..Material::default() },
             Material { base_color: Vec3::splat(0.5), metallic: 0.0, roughness: 0.0, specular: 0.6, ..Material::default() },

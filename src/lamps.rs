@@ -148,7 +148,7 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             }
             let n = normal.normalize_or_zero();
             if n != Vec3::ZERO && p.iter().all(|v| v.is_finite()) {
-                scene.triangles.push(Triangle { p, n: [n; 3], material });
+                scene.triangles.push(Triangle::new(p, [n; 3], material));
             }
         }
     }

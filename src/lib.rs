@@ -37,7 +37,8 @@ pub mod wide_bvh;
 /// instruction rather than three. Against glam's scalar `Vec3` (the same
 /// formulas, images equal to 3·10⁻⁴; callgrind, 96², 4 spp, 1 thread): 9%
 /// fewer instructions on the benchmark's Cornell box and 7% on its gold
-/// sphere, 5% and 2% less time. A triangle takes 112 bytes instead of 76.
+/// sphere, 5% and 2% less time. The scene's triangles keep 12-byte vectors
+/// (scene.rs), converted as they are read.
 pub type Vec3 = glam::Vec3A;
 
 /// The default scene, compiled into the binary so it renders from anywhere.

@@ -82,7 +82,7 @@ struct Nearness {
 
 impl Nearness {
     fn of(tri: &Triangle) -> Self {
-        let [a, b, c] = tri.p;
+        let [a, b, c] = tri.p();
         Nearness { centroid: (a + b + c) / 3.0, longest2: (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared()) }
     }
 
@@ -187,7 +187,7 @@ impl Lights {
         let (mut lo, mut hi, mut local_power, mut suns) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64, Vec::new());
         for (&t, &power) in triangles.iter().zip(&powers) {
             let tri = &scene.triangles[t as usize];
-            tri.p.iter().for_each(|&v| (lo, hi) = (lo.min(v), hi.max(v)));
+            tri.p().iter().for_each(|&v| (lo, hi) = (lo.min(v), hi.max(v)));
             local_power += power;
         }
         for (index, (light, power)) in scene.punctual.iter().zip(&mut powers[triangles.len()..]).enumerate() {
@@ -311,7 +311,7 @@ impl Lights {
         let mut tri = &scene.triangles[triangle as usize];
         let mut normal = emitter.normal;
         let pdf_area = local * self.local_pdf_area(scene.materials[tri.material as usize].emission);
-        let view = close_solid_angle(p, tri, &emitter.nearness).and_then(|omega| SphericalTriangle::new(p, &tri.p, omega));
+        let view = close_solid_angle(p, tri, &emitter.nearness).and_then(|omega| SphericalTriangle::new(p, &tri.p(), omega));
         let b = match (&view, &emitter.quad) {
             (Some(view), _) => barycentrics_along(p, view.sample(u), tri),
             // A quad is drawn whole where neither half is sampled by solid
@@ -327,7 +327,7 @@ impl Lights {
             }
             (None, _) => uniform_triangle(u),
         };
-        let point = tri.p[0] * (1.0 - b.x - b.y) + tri.p[1] * b.x + tri.p[2] * b.y;
+        let point = tri.p()[0] * (1.0 - b.x - b.y) + tri.p()[1] * b.x + tri.p()[2] * b.y;
         let density = match view {
             Some(view) => Density::SolidAngle(pdf_area * emitter.area / view.solid_angle),
             None => Density::Area(pdf_area),
@@ -365,7 +365,7 @@ impl Lights {
             return None;
         }
         let normal = if front { self.emitters[pick].normal } else { -self.emitters[pick].normal };
-        let (point, error) = point_on_triangle(&tri.p, b.x, b.y);
+        let (point, error) = point_on_triangle(&tri.p(), b.x, b.y);
         let origin = offset_origin(point, error, normal, normal);
         Some(EmissionSample { triangle, origin, normal, dir: Frame::from_normal(normal).to_world(local), le, density: self.emission_density(m) })
     }
@@ -393,7 +393,7 @@ fn close_solid_angle(p: Vec3, tri: &Triangle, nearness: &Nearness) -> Option<f32
     if !nearness.close(p) {
         return None;
     }
-    let [a, b, c] = tri.p;
+    let [a, b, c] = tri.p();
     // A point on the emitter itself (a reflective lamp) lies in its plane
     // only up to rounding; seen from there its inside would read as a
     // solid angle near 2π, and a lamp lit itself (Blender's Cornell box
@@ -403,16 +403,16 @@ fn close_solid_angle(p: Vec3, tri: &Triangle, nearness: &Nearness) -> Option<f32
     if !(n.dot(a - p).abs() > rounding * n.length()) {
         return None;
     }
-    spherical_triangle::solid_angle(p, &tri.p)
+    spherical_triangle::solid_angle(p, &tri.p())
 }
 
 /// Where the ray from `p` along `w` crosses the triangle's plane, as
 /// barycentrics (b1, b2) clamped onto the triangle (a direction drawn over
 /// its solid angle can stray past an edge by rounding).
 fn barycentrics_along(p: Vec3, w: Vec3, tri: &Triangle) -> Vec2 {
-    let (e1, e2) = (tri.p[1] - tri.p[0], tri.p[2] - tri.p[0]);
+    let (e1, e2) = (tri.p()[1] - tri.p()[0], tri.p()[2] - tri.p()[0]);
     let n = e1.cross(e2);
-    let x = p + w * (n.dot(tri.p[0] - p) / n.dot(w)) - tri.p[0];
+    let x = p + w * (n.dot(tri.p()[0] - p) / n.dot(w)) - tri.p()[0];
     let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let (x1, x2) = (x.dot(e1), x.dot(e2));
     let det = d11 * d22 - d12 * d12;
@@ -449,11 +449,7 @@ mod tests {
 
     #[test]
     fn emitters_are_picked_by_power_and_the_density_integrates_to_one() {
-        let tri = |x: f32, material: u32| Triangle {
-            p: [Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)],
-            n: [Vec3::Z; 3],
-            material,
-        };
+        let tri = |x: f32, material: u32| Triangle::new([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)], [Vec3::Z; 3], material);
         let m = |le: f32| Material { emission: Vec3::splat(le), ..Material::default() };
         let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
         let scene = Scene::new(vec![tri(0.0, 0), tri(2.0, 1), tri(4.0, 2)], vec![m(1.0), m(3.0), m(0.0)], camera);
@@ -476,7 +472,7 @@ mod tests {
     /// the densities of all choices still sum to 1.
     #[test]
     fn the_worlds_share_follows_the_distance_to_the_other_lights() {
-        let tri = Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], n: [Vec3::Z; 3], material: 0 };
+        let tri = Triangle::new([Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z; 3], 0);
         let lamp = Material { emission: Vec3::splat(10.0), ..Material::default() };
         let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
         let mut scene = Scene::new(vec![tri], vec![lamp], camera);

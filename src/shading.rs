@@ -144,7 +144,7 @@ mod tests {
 
     /// One triangle with UVs (0,0), (1,0), (0,1), and a 2 × 1 texture.
     fn scene(material: Material, texel: [[u8; 4]; 2]) -> Scene {
-        let tri = Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], n: [Vec3::Z; 3], material: 0 };
+        let tri = Triangle::new([Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z; 3], 0);
         let camera = Camera::from_world("c".into(), &Mat4::IDENTITY, 1.0, None).unwrap();
         let mut s = Scene::new(vec![tri], vec![material], camera);
         s.attributes.uv[0] = vec![[Vec2::ZERO, Vec2::X, Vec2::Y]];

@@ -131,7 +131,7 @@ mod tests {
                     let d = (v() - o * 0.2).normalize();
                     let hits = pack.intersect(&PackRay::new(o, d), 10.0);
                     for lane in 0..4 {
-                        let scalar = corners.get(lane).and_then(|c| Accel::intersect_brute_force(&[Triangle { p: *c, n: [Vec3::Z; 3], material: 0 }], o, d, 10.0));
+                        let scalar = corners.get(lane).and_then(|c| Accel::intersect_brute_force(&[Triangle::new(*c, [Vec3::Z; 3], 0)], o, d, 10.0));
                         match scalar {
                             Some(h) => {
                                 assert!(hits.mask & 1 << lane != 0, "lane {lane} missed");

@@ -386,10 +386,10 @@ mod tests {
             .map(|i| {
                 let z = i as f32 * 1e-3;
                 let c = Vec3::new(rng.next_f32(), rng.next_f32(), z);
-                Triangle { p: [c, c + Vec3::new(0.3, 0.01, 0.0), c + Vec3::new(0.0, 0.3, 1e-4)], n: [Vec3::Z; 3], material: 0 }
+                Triangle::new([c, c + Vec3::new(0.3, 0.01, 0.0), c + Vec3::new(0.0, 0.3, 1e-4)], [Vec3::Z; 3], 0)
             })
             .collect();
-        let corners: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.p).collect();
+        let corners: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.p()).collect();
         let all: Vec<u32> = (0..triangles.len() as u32).collect();
         let cwbvh = crate::accel::build_cwbvh(&triangles, &all);
         let small = WideBvh::from_cwbvh(&cwbvh, &corners);
@@ -401,7 +401,7 @@ mod tests {
             bvh.closest(o, d, f32::INFINITY, |leaf, mut limit| {
                 let (first, count) = bvh.leaves[leaf as usize];
                 for t in &tris[first as usize..(first + count) as usize] {
-                    let one = [Triangle { p: *t, n: [Vec3::Z; 3], material: 0 }];
+                    let one = [Triangle::new(*t, [Vec3::Z; 3], 0)];
                     if let Some(h) = Accel::intersect_brute_force(&one, o, d, limit) {
                         limit = h.t;
                         best = h.t;

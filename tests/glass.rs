@@ -22,7 +22,7 @@ fn sphere(c: Vec3, r: f32, rings: usize, segments: usize, material: u32) -> Vec<
             let (a, b, cc, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
             for n in [[a, d, cc], [a, cc, b]] {
                 if (n[1] - n[0]).cross(n[2] - n[0]).length() > 1e-9 {
-                    tris.push(Triangle { p: n.map(|v| c + v * r), n, material });
+                    tris.push(Triangle::new(n.map(|v| c + v * r), n, material));
                 }
             }
         }

@@ -8,7 +8,7 @@ use common::*;
 use glint::Vec3;
 use glint::material::Material;
 use glint::render::RenderSettings;
-use glint::scene::Scene;
+use glint::scene::{Scene, Triangle};
 
 /// A floor (metal or dielectric) reflecting a small, bright light: the
 /// reflection is a narrow lobe that light sampling rarely lands in.
@@ -139,7 +139,7 @@ fn expected_floor(scene: &Scene, w: u32, h: u32) -> Vec<f32> {
         .triangles
         .iter()
         .filter(|t| scene.materials[t.material as usize].is_emissive())
-        .map(|t| ((t.p[0] + t.p[1] + t.p[2]) / 3.0, scene.materials[t.material as usize].emission.x * t.area()))
+        .map(|t| ((t.p()[0] + t.p()[1] + t.p()[2]) / 3.0, scene.materials[t.material as usize].emission.x * t.area()))
         .collect();
     let mut out = Vec::with_capacity((w * h) as usize);
     for j in 0..h {
@@ -276,7 +276,7 @@ fn emitters_of_zero_strength_are_not_lights() {
 fn transformed(scene: &Scene, scale: f32, shift: Vec3) -> Scene {
     let mut out = scene.clone();
     for t in &mut out.triangles {
-        t.p = t.p.map(|p| p * scale + shift);
+        *t = Triangle::new(t.p().map(|p| p * scale + shift), t.n(), t.material);
     }
     out.camera.position = out.camera.position * scale + shift;
     out
@@ -336,7 +336,8 @@ fn perturb_normals(scene: &mut Scene, seed: u64) {
     let mut rng = glint::rng::Rng::new(seed, 1);
     for t in &mut scene.triangles {
         let face = t.cross().normalize();
-        for n in &mut t.n {
+        let mut normals = t.n();
+        for n in &mut normals {
             let r = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
             let mut v = (face + r * 3.0).normalize_or(face);
             if rng.next_f32() < 0.1 {
@@ -344,6 +345,7 @@ fn perturb_normals(scene: &mut Scene, seed: u64) {
             }
             *n = v;
         }
+        *t = Triangle::new(t.p(), normals, t.material);
     }
 }
 
@@ -482,7 +484,7 @@ fn degenerate_data_loads_with_warnings_and_renders_clean() {
     assert!(scene.warnings.iter().any(|w| w.contains("normal")), "{:?}", scene.warnings);
     assert_eq!(scene.materials[0].base_color, Vec3::new(1.0, 0.5, 0.0), "{:?}", scene.materials[0]);
     for t in &scene.triangles {
-        assert!(t.n.iter().all(|n| n.is_finite() && (n.length() - 1.0).abs() < 1e-5));
+        assert!(t.n().iter().all(|n| n.is_finite() && (n.length() - 1.0).abs() < 1e-5));
     }
     for on in [true, false] {
         let (img, stats) = render(&scene, &mis(on, settings(24, 24, 32, 8, 2)), 2);

@@ -546,7 +546,7 @@ impl<'a> Builder<'a> {
                         None => face,
                     }
                 });
-                self.triangles.push(Triangle { p, n, material });
+                self.triangles.push(Triangle::new(p, n, material));
                 let before = self.triangles.len() - 1;
                 let a = &mut self.attributes;
                 for (column, uv) in a.uv.iter_mut().zip(&uvs) {

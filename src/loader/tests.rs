@@ -97,7 +97,7 @@ fn the_embedded_cornell_box_loads_with_outward_shading_normals() {
     // Winding and normals agree everywhere (the sphere's smooth normals too).
     for t in &s.triangles {
         let face = t.cross().normalize();
-        for n in t.n {
+        for n in t.n() {
             assert!(n.dot(face) > 0.5, "shading normal {n} against face {face}");
         }
     }
@@ -110,7 +110,7 @@ fn non_indexed_and_flat_shaded() {
     d["accessors"][0]["count"] = json!(3);
     let s = load(&d).unwrap();
     assert_eq!(s.triangles.len(), 1);
-    assert_eq!(s.triangles[0].n, [Vec3::Z; 3]);
+    assert_eq!(s.triangles[0].n(), [Vec3::Z; 3]);
     // No material: glTF's default (white, metallic 1, roughness 1).
     assert_eq!(s.materials[0], Material::default());
 }
@@ -126,10 +126,10 @@ fn world_transforms_through_the_hierarchy_trs_and_matrix() {
     ]);
     let s = load(&d).unwrap();
     // Vertex (1,0,0) → scaled (2,0,0) → rotated (0,2,0) → translated (10,2,0).
-    let v = s.triangles[0].p[1];
+    let v = s.triangles[0].p()[1];
     assert!((v - Vec3::new(10.0, 2.0, 0.0)).length() < 1e-5, "{v}");
     // Normals rotate with the node: +Z stays +Z under a Z rotation.
-    assert!((s.triangles[0].n[0] - Vec3::Z).length() < 1e-5);
+    assert!((s.triangles[0].n()[0] - Vec3::Z).length() < 1e-5);
 }
 
 #[test]
@@ -140,7 +140,7 @@ fn mirroring_transform_keeps_the_front_face() {
     // Mirrored in z, the quad's front now faces -Z; winding is flipped to match.
     for t in &s.triangles {
         assert!(t.cross().normalize().dot(Vec3::NEG_Z) > 0.999);
-        assert!(t.n[0].dot(Vec3::NEG_Z) > 0.999);
+        assert!(t.n()[0].dot(Vec3::NEG_Z) > 0.999);
     }
 }
 
@@ -363,7 +363,7 @@ fn bad_normals_fall_back_to_the_face_normal() {
     d["buffers"][0]["uri"] = json!(data_uri(&buf));
     let s = load(&d).unwrap();
     for t in &s.triangles {
-        for n in t.n {
+        for n in t.n() {
             assert!((n - Vec3::Z).length() < 1e-6);
         }
     }
@@ -443,5 +443,5 @@ fn sparse_accessor_overrides_values() {
     d["bufferViews"].as_array_mut().unwrap().push(json!({"buffer": 0, "byteOffset": sparse_at + 4, "byteLength": 12}));
     d["accessors"][0]["sparse"] = json!({"count": 1, "indices": {"bufferView": 3, "componentType": 5123}, "values": {"bufferView": 4}});
     let s = load(&d).unwrap();
-    assert_eq!(s.triangles[0].p[2], Vec3::new(5.0, 5.0, 0.0));
+    assert_eq!(s.triangles[0].p()[2], Vec3::new(5.0, 5.0, 0.0));
 }

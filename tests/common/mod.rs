@@ -53,7 +53,7 @@ pub fn horizontal_quad(c: Vec3, half: f32, y: f32, facing_up: bool, material: u3
 /// A flat-shaded triangle.
 pub fn triangle(p: [Vec3; 3], material: u32) -> Triangle {
     let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-    Triangle { p, n: [n; 3], material }
+    Triangle::new(p, [n; 3], material)
 }
 
 pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
