@@ -240,6 +240,26 @@ impl GridPoint {
     }
 }
 
+/// Cells of `layer_fresnel`'s table over cosines 0 … 1.
+const FRESNEL_CELLS: usize = 1024;
+
+/// `fresnel_dielectric(cos, DIELECTRIC_ETA)`, the Principled BSDF's
+/// specular layer's Fresnel, interpolated in a table of 1,025 values:
+/// every BSDF evaluation of a dielectric asks for it, and its square root
+/// and two divisions in a row were about 30% of an evaluation's time (perf).
+/// Within 5e-6 of the exact value at every cosine (the test below), where
+/// the layer's albedo tables hold 1e-5.
+#[inline]
+pub fn layer_fresnel(cos: f32) -> f32 {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    let table = TABLE.get_or_init(|| (0..=FRESNEL_CELLS).map(|i| fresnel_dielectric(i as f32 / FRESNEL_CELLS as f32, DIELECTRIC_ETA)).collect());
+    let x = cos.abs().min(1.0) * FRESNEL_CELLS as f32;
+    let i = cell(x, FRESNEL_CELLS + 1);
+    let t = x - i as f32;
+    let (a, b) = (table[i], table[i + 1]);
+    a + t * (b - a)
+}
+
 /// The baked tables (built afresh only if the baked file were not the
 /// tables' size, which the tests rule out).
 pub fn tables() -> &'static EnergyTables {
@@ -250,6 +270,17 @@ pub fn tables() -> &'static EnergyTables {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn layer_fresnel_is_the_exact_fresnel_to_5e_6() {
+        let n = 1_000_000;
+        let worst = (0..=n).map(|k| k as f32 / n as f32).map(|c| (layer_fresnel(c) - fresnel_dielectric(c, DIELECTRIC_ETA)).abs()).fold(0.0f32, f32::max);
+        assert!(worst < 5e-6, "{worst}");
+        // Either side, and past 1 by rounding.
+        assert_eq!(layer_fresnel(-0.3), layer_fresnel(0.3));
+        assert_eq!(layer_fresnel(1.0 + 1e-6), fresnel_dielectric(1.0, DIELECTRIC_ETA));
+        assert!((layer_fresnel(0.0) - 1.0).abs() < 1e-6 && layer_fresnel(f32::NAN).is_finite());
+    }
     use crate::bsdf::microfacet;
 
     /// The tables against an independent Monte Carlo integral of the lobe:

@@ -23,7 +23,7 @@
 //! Like Cycles, the layering and the compensation depend on wo only, so the
 //! model is not reciprocal; the lobes themselves are.
 
-use super::energy::{ms_fraction, ms_scale, tables, TableRow, DIELECTRIC_ETA};
+use super::energy::{layer_fresnel, ms_fraction, ms_scale, tables, TableRow, DIELECTRIC_ETA};
 use super::microfacet::{self, fresnel_dielectric, schlick_average};
 use super::{fresnel_schlick, lambert, luminance, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
 use crate::material::Surface;
@@ -158,7 +158,7 @@ impl PrincipledBsdf {
     fn glossy_fresnel(&self, cos_h: f32) -> Vec3 {
         let metal = if self.metallic > 0.0 { self.metallic * self.s_metal * fresnel_schlick(self.base, cos_h) } else { Vec3::ZERO };
         let dielectric_weight = (1.0 - self.metallic) * self.specular;
-        let dielectric = if dielectric_weight > 0.0 { dielectric_weight * self.s_dielectric * fresnel_dielectric(cos_h, DIELECTRIC_ETA) } else { 0.0 };
+        let dielectric = if dielectric_weight > 0.0 { dielectric_weight * self.s_dielectric * layer_fresnel(cos_h) } else { 0.0 };
         metal + Vec3::splat(dielectric)
     }
 
