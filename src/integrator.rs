@@ -52,7 +52,7 @@
 use crate::accel::{Accel, Hit};
 use crate::bsdf::Bsdf;
 use crate::features::{Features, Kernel};
-use crate::light_paths::{carries_light_paths, LightVertex};
+use crate::light_paths::{carries_light_paths, ConnectionVertex};
 pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
@@ -285,7 +285,7 @@ impl SurfaceHit {
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
-        let surface = facing(shading::surface_at(scene, material, hit.triangle, b), front_face);
+        let surface = surface_facing(scene, tri.material, hit.triangle, b, front_face);
         let frame = Frame::from_normal(shading_normal_for(ns, ng, -dir));
         (SurfaceHit { p, p_error, ng, frame, front_face, material: tri.material, triangle: hit.triangle, b, surface }, ns)
     }
@@ -313,12 +313,27 @@ fn facing(mut surface: Surface, front_face: bool) -> Surface {
     surface
 }
 
+/// The material `material` at a point of a triangle as a ray from the
+/// `front_face` side meets it, textures applied.
+#[inline]
+pub(crate) fn surface_facing(scene: &Scene, material: u32, triangle: u32, b: Barycentric, front_face: bool) -> Surface {
+    facing(shading::surface_at(scene, &scene.materials[material as usize], triangle, b), front_face)
+}
+
 /// The BSDF at a hit for outgoing direction `wo` (local).
 #[inline]
 pub(crate) fn bsdf_at<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, wo: Vec3) -> B {
-    match &prepared[si.material as usize] {
-        Some(faces) => B::at(&faces[!si.front_face as usize], wo),
-        None => B::new(&si.surface, wo),
+    bsdf_on::<B>(prepared, si.material, si.front_face, || si.surface, wo)
+}
+
+/// The BSDF of material `material`'s face for outgoing direction `wo`:
+/// prepared where the material is the same everywhere, else built from
+/// `surface`, the material at the point.
+#[inline]
+pub(crate) fn bsdf_on<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], material: u32, front_face: bool, surface: impl FnOnce() -> Surface, wo: Vec3) -> B {
+    match &prepared[material as usize] {
+        Some(faces) => B::at(&faces[!front_face as usize], wo),
+        None => B::new(&surface(), wo),
     }
 }
 
@@ -690,9 +705,8 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
 /// with `tracing` (n_T M / p_cam(z) where z is x1 and light tracing can
 /// make the path, else 0), against light tracing's.
 #[allow(clippy::too_many_arguments)]
-fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, bsdf: &B, wo: Vec3, v: &LightVertex, scale: f32, mis_scale: f32, tracing: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
-    let y = &v.hit;
-    let to_y = y.p - si.p;
+fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, bsdf: &B, wo: Vec3, v: &ConnectionVertex, scale: f32, mis_scale: f32, tracing: f32, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let to_y = v.p - si.p;
     let d2 = to_y.length_squared();
     if !(d2 > 0.0) {
         return Vec3::ZERO;
@@ -703,9 +717,9 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     // can sit on the plane of the wall it meets, and a ray between the two
     // would pass the wall's edge (light from outside a closed box). The
     // paths this drops from the connection's reach have no measure.
-    let rounding = y.ng.abs().dot(y.p_error) + si.ng.abs().dot(si.p_error);
-    let cos_y = -w.dot(y.ng);
-    if !(cos_y > 0.0 && -to_y.dot(y.ng) > rounding && to_y.dot(si.ng).abs() > rounding) {
+    let rounding = v.ng.abs().dot(v.p_error()) + si.ng.abs().dot(si.p_error);
+    let cos_y = -w.dot(v.ng);
+    if !(cos_y > 0.0 && -to_y.dot(v.ng) > rounding && to_y.dot(si.ng).abs() > rounding) {
         return Vec3::ZERO;
     }
     let Some(wi_z) = toward_light(si, bsdf, w) else { return Vec3::ZERO };
@@ -714,19 +728,19 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
         return Vec3::ZERO;
     }
     // y as a camera path through z would shade it.
-    let frame = Frame::from_normal(shading_normal_for(v.ns, y.ng, -w));
+    let frame = Frame::from_normal(shading_normal_for(v.ns(), v.ng, -w));
     let (wo_y, wi_y) = (frame.to_local(-w), frame.to_local(v.to_prev));
     if !(wi_y.z > 0.0 && wo_y.z > 0.0) {
         return Vec3::ZERO;
     }
-    let (f_y, pdf_y) = bsdf_at::<B>(prepared, y, wo_y).evaluate(wo_y, wi_y);
+    let (f_y, pdf_y) = v.bsdf::<B>(ctx.scene, prepared, wo_y).evaluate(wo_y, wi_y);
     if f_y == Vec3::ZERO {
         return Vec3::ZERO;
     }
     // Light tracing makes z from y as the subpath would go on: the pdf
     // at y of the direction to z, arriving from y_{k−1}.
-    let traced = if tracing > 0.0 { tracing * bsdf_at::<B>(prepared, y, wi_y).pdf(wi_y, wo_y) * w.dot(si.ng).abs() / d2 } else { 0.0 };
-    let contribution = f_z * f_y * v.alpha * (scale * wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_prev.dot(y.ng));
+    let traced = if tracing > 0.0 { tracing * v.bsdf::<B>(ctx.scene, prepared, wi_y).pdf(wi_y, wo_y) * w.dot(si.ng).abs() / d2 } else { 0.0 };
+    let contribution = f_z * f_y * v.alpha * (scale * wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_prev.dot(v.ng));
     // The densities of light sampling at y1 (s = 1) and of a BSDF sample
     // there hitting y0 (s = 0) over this connection's: the ratio of z's
     // making y to the subpath's, that of y's making y_{k−1} to y_{k−2}'s,
@@ -744,7 +758,7 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     if !(contribution * weight).is_finite() || !(weight > 0.0) {
         return Vec3::ZERO;
     }
-    if !unblocked(ctx, si, w, y.p, y.p_error, y.ng, y.triangle, rng, rays) {
+    if !unblocked(ctx, si, w, v.p, v.p_error(), v.ng, v.triangle, rng, rays) {
         return Vec3::ZERO;
     }
     contribution * weight

@@ -52,7 +52,9 @@
 
 use crate::bsdf::Bsdf;
 use crate::light_tracing::{LightTracing, Splat};
-use crate::integrator::{bsdf_at, RayCounts, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL};
+use crate::integrator::{bsdf_at, bsdf_on, surface_facing, RayCounts, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL};
+use crate::scene::Scene;
+use crate::shading::Barycentric;
 use crate::material::Surface;
 use crate::rng::Rng;
 use crate::sampling::Frame;
@@ -91,9 +93,77 @@ pub struct LightVertex {
     pub to_unidirectional: f32,
 }
 
+/// What a connection (integrator.rs) reads of a light vertex, kept in
+/// 128 bytes where a `LightVertex` takes 256: a camera path's connections
+/// pick among a sample index's thousands of vertices at random, and at
+/// 256 bytes each they had not stayed in cache. Positions and directions
+/// that are read in every connection stay SIMD vectors; the error bound
+/// and the shading normal are read once and kept in 12 bytes. The surface
+/// itself is kept only as its material, face and barycentrics: a material
+/// whose BSDF is prepared needs no more, and a textured one is looked up
+/// again (`bsdf`).
+#[derive(Clone, Copy, Debug)]
+pub struct ConnectionVertex {
+    pub p: Vec3,
+    /// Geometric normal, facing y_{k−1}.
+    pub ng: Vec3,
+    pub to_prev: Vec3,
+    pub alpha: Vec3,
+    p_error: glam::Vec3,
+    ns: glam::Vec3,
+    pub triangle: u32,
+    material: u32,
+    b: [f32; 2],
+    pub generated: f32,
+    pub back: f32,
+    pub prefix: f32,
+    pub to_unidirectional: f32,
+    pub depth: u32,
+    front_face: bool,
+}
+
+impl ConnectionVertex {
+    fn of(v: &LightVertex) -> Self {
+        let y = &v.hit;
+        ConnectionVertex {
+            p: y.p,
+            ng: y.ng,
+            to_prev: v.to_prev,
+            alpha: v.alpha,
+            p_error: y.p_error.into(),
+            ns: v.ns.into(),
+            triangle: y.triangle,
+            material: y.material,
+            b: [y.b.0[1], y.b.0[2]],
+            generated: v.generated,
+            back: v.back,
+            prefix: v.prefix,
+            to_unidirectional: v.to_unidirectional,
+            depth: v.depth,
+            front_face: y.front_face,
+        }
+    }
+
+    pub fn p_error(&self) -> Vec3 {
+        self.p_error.into()
+    }
+
+    /// The interpolated shading normal on `ng`'s side (zero where none).
+    pub fn ns(&self) -> Vec3 {
+        self.ns.into()
+    }
+
+    /// The BSDF here for outgoing direction `wo` (local), as `bsdf_at`
+    /// gives it at the hit the vertex was made from.
+    #[inline]
+    pub fn bsdf<B: Bsdf>(&self, scene: &Scene, prepared: &[Option<[B::Prepared; 2]>], wo: Vec3) -> B {
+        bsdf_on::<B>(prepared, self.material, self.front_face, || surface_facing(scene, self.material, self.triangle, Barycentric::new(self.b[0], self.b[1]), self.front_face), wo)
+    }
+}
+
 /// The light vertices of one sample index.
 pub struct LightVertices {
-    vertices: Vec<LightVertex>,
+    vertices: Vec<ConnectionVertex>,
     /// Subpaths traced, counting those that made no vertex (a pick of a
     /// punctual light, a ray that left the scene).
     traced: u32,
@@ -134,7 +204,7 @@ impl LightVertices {
     pub fn trace<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, sample: u64, count: u32, max_vertex_depth: u32, mis_scale: f32, rays: &mut u64) -> Self {
         let mut vertices = Vec::with_capacity(2 * count as usize);
         for j in 0..count {
-            subpath::<B>(ctx, prepared, &mut subpath_rng(seed, j, sample), max_vertex_depth, rays, &mut |v, _, _| vertices.push(v.clone()));
+            subpath::<B>(ctx, prepared, &mut subpath_rng(seed, j, sample), max_vertex_depth, rays, &mut |v, _, _| vertices.push(ConnectionVertex::of(v)));
         }
         LightVertices { vertices, traced: count, mis_scale, max_vertex_depth, tracing: 0.0 }
     }
@@ -167,7 +237,7 @@ impl LightVertices {
         let max_vertex_depth = max_depth.saturating_sub(1);
         let subpaths = tracing.map_or(count, |t| count.max(t.subpaths as u32));
         let tasks: Vec<(u32, u32)> = samples.clone().flat_map(|s| (0..subpaths.div_ceil(BLOCK)).map(move |b| (s, b * BLOCK))).collect();
-        let traced: Vec<(Vec<LightVertex>, Vec<Splat>, RayCounts)> = tasks
+        let traced: Vec<(Vec<ConnectionVertex>, Vec<Splat>, RayCounts)> = tasks
             .into_par_iter()
             .map(|(s, j0)| {
                 let (mut vertices, mut splats, mut rays) = (Vec::new(), Vec::new(), RayCounts::default());
@@ -175,7 +245,7 @@ impl LightVertices {
                     let mut rng = subpath_rng(seed, j, s as u64);
                     subpath::<B>(ctx, prepared, &mut rng, max_vertex_depth, &mut rays.bounce, &mut |v, rng, _| {
                         if j < count {
-                            vertices.push(v.clone());
+                            vertices.push(ConnectionVertex::of(v));
                         }
                         if let Some(splat) = tracing.filter(|t| j < t.subpaths as u32).and_then(|t| t.splat::<B>(ctx, prepared, v, rng, &mut rays.shadow)) {
                             splats.push(splat);
@@ -202,7 +272,7 @@ impl LightVertices {
     /// the factor that makes it stand for all of its sample index's
     /// subpaths: vertices / subpaths traced.
     #[inline]
-    pub fn pick(&self, u: u32) -> Option<(&LightVertex, f32)> {
+    pub fn pick(&self, u: u32) -> Option<(&ConnectionVertex, f32)> {
         let n = self.vertices.len();
         let v = self.vertices.get(((u as u64 * n as u64) >> 32) as usize)?;
         Some((v, n as f32 / self.traced as f32))
@@ -311,5 +381,17 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
             return;
         }
         v = next;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two cache lines: the size the connections' random picks were
+    /// measured with (README, *Speed*).
+    #[test]
+    fn a_connection_vertex_takes_128_bytes() {
+        assert_eq!(std::mem::size_of::<ConnectionVertex>(), 128);
     }
 }

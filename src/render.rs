@@ -208,24 +208,30 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 }
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
                 let mut stats = PassStats::default();
-                let mut sums = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        let pixel = y as u64 * w as u64 + x as u64;
-                        let mut sum = Vec3::ZERO;
-                        for s in range.clone() {
+                let mut sums = vec![Vec3::ZERO; ((x1 - x0) * (y1 - y0)) as usize];
+                // Sample index by sample index over the tile: the light
+                // vertices a sample index's connections pick from at random
+                // (light_paths.rs) stay in cache for the whole tile, where
+                // going through a pixel's samples first had every pick read
+                // from a different sample index's set. Each pixel's sum
+                // adds its samples in the same order either way.
+                for s in range.clone() {
+                    let vertices = light_vertices.as_ref().map(|v| &v[(s - range.start) as usize]);
+                    let mut sum = sums.iter_mut();
+                    for y in y0..y1 {
+                        for x in x0..x1 {
+                            let pixel = y as u64 * w as u64 + x as u64;
                             let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, pixel, s as u64);
                             let jitter = rng.next_2d();
                             let (o, d) = lens.ray(Vec2::new(x as f32, y as f32) + jitter);
-                            let vertices = light_vertices.as_ref().map(|v| &v[(s - range.start) as usize]);
                             let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, o, d, lens.importance(d), settings, &mut rng, &mut stats.rays);
+                            let sum = sum.next().expect("a sum per pixel of the tile");
                             if l.is_finite() {
-                                sum += l;
+                                *sum += l;
                             } else {
                                 stats.discarded += 1;
                             }
                         }
-                        sums.push(sum);
                     }
                 }
                 progress(sums.len() as u64 * range.len() as u64);
