@@ -36,7 +36,8 @@ struct RtTriangle {
 
 impl From<&Triangle> for RtTriangle {
     fn from(t: &Triangle) -> Self {
-        RtTriangle { v0: t.p()[0], e1: t.p()[1] - t.p()[0], e2: t.p()[2] - t.p()[0] }
+        let [v0, v1, v2] = t.p();
+        RtTriangle { v0, e1: v1 - v0, e2: v2 - v0 }
     }
 }
 
@@ -88,7 +89,8 @@ pub(crate) fn build_cwbvh(triangles: &[Triangle], subset: &[u32]) -> CwBvh {
     let bvh_tris: Vec<obvhs::triangle::Triangle> = subset
         .iter()
         .map(|&i| &triangles[i as usize])
-        .map(|t| obvhs::triangle::Triangle { v0: t.p()[0], v1: t.p()[1], v2: t.p()[2] })
+        .map(|t| t.p())
+        .map(|[v0, v1, v2]| obvhs::triangle::Triangle { v0, v1, v2 })
         .collect();
     build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut Duration::default())
 }
@@ -322,7 +324,8 @@ mod tests {
             let mut rng = Rng::new(3, 4);
             let scene: Vec<Triangle> = random_soup(500, &mut rng)
                 .into_iter()
-                .map(|t| tri(t.p()[0] * scale + Vec3::splat(shift), t.p()[1] * scale + Vec3::splat(shift), t.p()[2] * scale + Vec3::splat(shift)))
+                .map(|t| t.p().map(|p| p * scale + Vec3::splat(shift)))
+                .map(|[a, b, c]| tri(a, b, c))
                 .collect();
             let rays: Vec<_> = (0..1000)
                 .map(|_| {

@@ -327,7 +327,8 @@ impl Lights {
             }
             (None, _) => uniform_triangle(u),
         };
-        let point = tri.p()[0] * (1.0 - b.x - b.y) + tri.p()[1] * b.x + tri.p()[2] * b.y;
+        let [p0, p1, p2] = tri.p();
+        let point = p0 * (1.0 - b.x - b.y) + p1 * b.x + p2 * b.y;
         let density = match view {
             Some(view) => Density::SolidAngle(pdf_area * emitter.area / view.solid_angle),
             None => Density::Area(pdf_area),
@@ -410,9 +411,10 @@ fn close_solid_angle(p: Vec3, tri: &Triangle, nearness: &Nearness) -> Option<f32
 /// barycentrics (b1, b2) clamped onto the triangle (a direction drawn over
 /// its solid angle can stray past an edge by rounding).
 fn barycentrics_along(p: Vec3, w: Vec3, tri: &Triangle) -> Vec2 {
-    let (e1, e2) = (tri.p()[1] - tri.p()[0], tri.p()[2] - tri.p()[0]);
+    let [p0, p1, p2] = tri.p();
+    let (e1, e2) = (p1 - p0, p2 - p0);
     let n = e1.cross(e2);
-    let x = p + w * (n.dot(tri.p()[0] - p) / n.dot(w)) - tri.p()[0];
+    let x = p + w * (n.dot(p0 - p) / n.dot(w)) - p0;
     let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let (x1, x2) = (x.dot(e1), x.dot(e2));
     let det = d11 * d22 - d12 * d12;

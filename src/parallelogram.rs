@@ -32,11 +32,12 @@ impl Parallelogram {
     /// the same way, and their far corners and areas agree with a
     /// parallelogram's to 1e-5 (so the uniform density over it is theirs).
     pub fn of(ta: u32, a: &Triangle, tb: u32, b: &Triangle) -> Option<Self> {
-        let shared: Vec<(usize, usize)> = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).filter(|&(i, j)| a.p()[i] == b.p()[j]).collect();
+        let (pa, pb) = (a.p(), b.p());
+        let shared: Vec<(usize, usize)> = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).filter(|&(i, j)| pa[i] == pb[j]).collect();
         let &[(i1, j1), (i2, j2)] = shared.as_slice() else { return None };
         let ia = 3 - i1 - i2;
         let ib = 3 - j1 - j2;
-        let (apex, s1, s2, far) = (a.p()[ia], a.p()[i1], a.p()[i2], b.p()[ib]);
+        let (apex, s1, s2, far) = (pa[ia], pa[i1], pa[i2], pb[ib]);
         let (e1, e2) = (s1 - apex, s2 - apex);
         let area = e1.cross(e2).length();
         let scale = e1.length().max(e2.length());
@@ -98,7 +99,8 @@ mod tests {
                 let (t, bary) = quad.sample(u);
                 let tr = if t == 7 { &a } else { &b };
                 assert!(bary.min_element() >= -1e-6 && bary.x + bary.y <= 1.0 + 1e-6);
-                tr.p()[0] * (1.0 - bary.x - bary.y) + tr.p()[1] * bary.x + tr.p()[2] * bary.y
+                let [p0, p1, p2] = tr.p();
+                p0 * (1.0 - bary.x - bary.y) + p1 * bary.x + p2 * bary.y
             };
             let (origin, x, y) = (point(Vec2::ZERO), point(Vec2::X), point(Vec2::Y));
             let corners = [origin, x, y, point(Vec2::ONE)];

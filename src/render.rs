@@ -217,7 +217,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 // adds its samples in the same order either way.
                 for s in range.clone() {
                     let vertices = light_vertices.as_ref().map(|v| &v[(s - range.start) as usize]);
-                    let mut sum = sums.iter_mut();
+                    let mut pixel_sums = sums.iter_mut();
                     for y in y0..y1 {
                         for x in x0..x1 {
                             let pixel = y as u64 * w as u64 + x as u64;
@@ -225,7 +225,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                             let jitter = rng.next_2d();
                             let (o, d) = lens.ray(Vec2::new(x as f32, y as f32) + jitter);
                             let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, o, d, lens.importance(d), settings, &mut rng, &mut stats.rays);
-                            let sum = sum.next().expect("a sum per pixel of the tile");
+                            let sum = pixel_sums.next().expect("a sum per pixel of the tile");
                             if l.is_finite() {
                                 *sum += l;
                             } else {

@@ -139,7 +139,7 @@ fn expected_floor(scene: &Scene, w: u32, h: u32) -> Vec<f32> {
         .triangles
         .iter()
         .filter(|t| scene.materials[t.material as usize].is_emissive())
-        .map(|t| ((t.p()[0] + t.p()[1] + t.p()[2]) / 3.0, scene.materials[t.material as usize].emission.x * t.area()))
+        .map(|t| (t.p().into_iter().sum::<Vec3>() / 3.0, scene.materials[t.material as usize].emission.x * t.area()))
         .collect();
     let mut out = Vec::with_capacity((w * h) as usize);
     for j in 0..h {

@@ -270,6 +270,7 @@ pub fn tables() -> &'static EnergyTables {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::microfacet;
 
     #[test]
     fn layer_fresnel_is_the_exact_fresnel_to_5e_6() {
@@ -281,7 +282,6 @@ mod tests {
         assert_eq!(layer_fresnel(1.0 + 1e-6), fresnel_dielectric(1.0, DIELECTRIC_ETA));
         assert!((layer_fresnel(0.0) - 1.0).abs() < 1e-6 && layer_fresnel(f32::NAN).is_finite());
     }
-    use crate::bsdf::microfacet;
 
     /// The tables against an independent Monte Carlo integral of the lobe:
     /// half vectors drawn from D(h)cosθh (the seed's sampler, not the
