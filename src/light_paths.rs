@@ -199,23 +199,24 @@ const SCALE_SUBPATHS: u32 = 512;
 const BLOCK: u32 = 1024;
 
 impl LightVertices {
-    /// One sample index's subpaths, from `count` starts.
-    #[allow(clippy::too_many_arguments)]
-    pub fn trace<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, sample: u64, count: u32, max_vertex_depth: u32, mis_scale: f32, rays: &mut u64) -> Self {
-        let mut vertices = Vec::with_capacity(2 * count as usize);
-        for j in 0..count {
-            subpath::<B>(ctx, prepared, &mut subpath_rng(seed, j, sample), max_vertex_depth, rays, &mut |v, _, _| vertices.push(ConnectionVertex::of(v)));
-        }
-        LightVertices { vertices, traced: count, mis_scale, max_vertex_depth, tracing: 0.0 }
-    }
-
     /// M for a render: the mean vertices per subpath over the connections
     /// a camera path makes (`CONNECTIONS`), from subpaths of a sample
-    /// index no pixel uses, and the rays they took.
+    /// index no pixel uses, and the rays they took. Traced in parallel
+    /// blocks: on one thread they were 1% of a 1-spp render's time.
     pub fn mis_scale<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], seed: u64, max_depth: u32) -> (f32, u64) {
-        let mut rays = 0;
-        let scale = Self::trace::<B>(ctx, prepared, seed ^ 0x4D49_535F_7363, u64::MAX, SCALE_SUBPATHS, max_depth.saturating_sub(1), 1.0, &mut rays);
-        ((scale.vertices.len() as f32 / SCALE_SUBPATHS as f32).max(1.0) / CONNECTIONS as f32, rays)
+        const SCALE_BLOCK: u32 = 64;
+        let (vertices, rays) = (0..SCALE_SUBPATHS.div_ceil(SCALE_BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let (mut vertices, mut rays) = (0u64, 0u64);
+                for j in b * SCALE_BLOCK..((b + 1) * SCALE_BLOCK).min(SCALE_SUBPATHS) {
+                    let mut rng = subpath_rng(seed ^ 0x4D49_535F_7363, j, u64::MAX);
+                    subpath::<B>(ctx, prepared, &mut rng, max_depth.saturating_sub(1), &mut rays, &mut |_, _, _| vertices += 1);
+                }
+                (vertices, rays)
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        ((vertices as f32 / SCALE_SUBPATHS as f32).max(1.0) / CONNECTIONS as f32, rays)
     }
 
     /// Every sample index of `samples`' vertices, from `count` subpaths
