@@ -9,7 +9,7 @@ use glint::integrator::Context;
 use glint::loader::{load_bytes, LoadOptions};
 use glint::render::{render_pass, Film, RenderSettings};
 use glint::scene::Scene;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Inside a closed box whose walls all emit Le and reflect diffusely with
 /// albedo a, radiance is Le/(1−a) everywhere: Le + a·Le + a²·Le + …
@@ -109,6 +109,36 @@ fn cancelled_pass_leaves_the_film_untouched() {
     assert!(render_pass(&ctx, &s, &mut film, 0..2, &cancel, &|_| {}).is_err());
     assert_eq!(film.samples, 0);
     assert!(film.sum.iter().all(|p| *p == Vec3::ZERO));
+}
+
+#[test]
+fn pass_cancelled_after_its_first_light_subpaths_leaves_an_empty_film_empty() {
+    // Light subpaths are traced four sample indices at a time: cancelling
+    // in the second group's tiles leaves the first group's sums and the
+    // second's splats in the pass, which the film must not keep.
+    let scene = cornell_box();
+    let s = RenderSettings { mis: true, ..settings(32, 32, 8, 4, 0) };
+    let (ctx, _) = Context::new(&scene);
+    assert!(ctx.traces_light_paths(&s));
+    let mut film = Film::new(32, 32);
+    let cancel = AtomicBool::new(false);
+    let done = AtomicU64::new(0);
+    let progress = |n: u64| {
+        if done.fetch_add(n, Ordering::Relaxed) + n > 32 * 32 * 5 {
+            cancel.store(true, Ordering::Relaxed);
+        }
+    };
+    assert!(render_pass(&ctx, &s, &mut film, 0..8, &cancel, &progress).is_err());
+    assert_eq!((film.samples, film.sum.len()), (0, 32 * 32));
+    assert!(film.sum.iter().all(|p| *p == Vec3::ZERO));
+    // A film that has samples keeps them through a cancelled pass.
+    cancel.store(false, Ordering::Relaxed);
+    render_pass(&ctx, &s, &mut film, 0..2, &cancel, &|_| {}).unwrap();
+    let kept = film.sum.clone();
+    cancel.store(true, Ordering::Relaxed);
+    assert!(render_pass(&ctx, &s, &mut film, 2..4, &cancel, &|_| {}).is_err());
+    assert_eq!(film.samples, 2);
+    assert_eq!(film.sum, kept);
 }
 
 #[test]
