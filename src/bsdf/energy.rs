@@ -186,6 +186,35 @@ impl EnergyTables {
         let at = GridPoint::at(column(mu), row);
         (at.read(&self.e), at.read(&self.e_layer))
     }
+
+    /// `e` and `e_layer` along μ at a roughness, interpolated across the
+    /// grid's rows once: a material whose roughness is the same everywhere
+    /// then reads two values a table where `e_and_layer_in` reads four.
+    pub fn rows(&self, row: TableRow) -> EnergyRows {
+        let TableRow { j, ty } = row;
+        let across = |table: &[f32]| std::array::from_fn(|i| table[j * N + i] * (1.0 - ty) + table[(j + 1) * N + i] * ty);
+        EnergyRows { e: across(&self.e), e_layer: across(&self.e_layer) }
+    }
+}
+
+/// `e` and `e_layer` at one roughness, over the grid's columns.
+#[derive(Clone, Copy, Debug)]
+pub struct EnergyRows {
+    e: [f32; N],
+    e_layer: [f32; N],
+}
+
+impl EnergyRows {
+    /// `e_and_layer_in` at μ, to float rounding (the same bilinear
+    /// interpolation, across rows first).
+    #[inline]
+    pub fn at(&self, mu: f32) -> (f32, f32) {
+        let x = column(mu);
+        let i = cell(x, N);
+        let t = x - i as f32;
+        let lerp = |r: &[f32; N]| r[i] * (1.0 - t) + r[i + 1] * t;
+        (lerp(&self.e), lerp(&self.e_layer))
+    }
 }
 
 /// The cell's lower index along an axis of `len` grid points for a
@@ -271,6 +300,20 @@ pub fn tables() -> &'static EnergyTables {
 mod tests {
     use super::*;
     use crate::bsdf::microfacet;
+
+    #[test]
+    fn a_roughness_rows_read_what_the_tables_do() {
+        let t = tables();
+        for r in 0..=200 {
+            let roughness = r as f32 / 200.0;
+            let rows = t.rows(TableRow::of(roughness));
+            for m in 0..=1000 {
+                let mu = m as f32 / 1000.0;
+                let ((e, layer), (e1, layer1)) = (t.e_and_layer(mu, roughness), rows.at(mu));
+                assert!((e - e1).abs() < 1e-6 && (layer - layer1).abs() < 1e-6, "roughness {roughness}, mu {mu}: {e} {e1}, {layer} {layer1}");
+            }
+        }
+    }
 
     #[test]
     fn layer_fresnel_is_the_exact_fresnel_to_5e_6() {

@@ -374,10 +374,13 @@ macro_rules! impl_bsdf {
     (@prepare $t:ty, $p:ty) => {
         type Prepared = $p;
         fn prepare(surface: &Surface) -> $p {
-            <$p>::new(surface)
+            <$p>::for_material(surface)
         }
         fn at(prepared: &$p, wo: Vec3) -> Self {
             <$t>::at(prepared, wo)
+        }
+        fn new(surface: &Surface, wo: Vec3) -> Self {
+            <$t>::new(surface, wo)
         }
     };
 }
