@@ -205,8 +205,7 @@ pub struct EnergyRows {
 }
 
 impl EnergyRows {
-    /// `e_and_layer_in` at μ, to float rounding (the same bilinear
-    /// interpolation, across rows first).
+    /// `e_and_layer_in` at μ, bit for bit.
     #[inline]
     pub fn at(&self, mu: f32) -> (f32, f32) {
         let x = column(mu);
@@ -257,15 +256,19 @@ impl GridPoint {
         GridPoint { i, tx: x - i as f32, row }
     }
 
-    /// Along μ in rows j and j + 1 (as `lerp_grid`), then across them.
+    /// Across rows j and j + 1 in columns i and i + 1, then along μ: the
+    /// operations of `EnergyTables::rows` and `EnergyRows::at`, so that a
+    /// material's 1-D rows read the same numbers, bit for bit, as a
+    /// textured surface's 2-D reads (and the kernels that prepare
+    /// materials render the general kernel's image).
     #[inline]
     fn read(&self, table: &[f32]) -> f32 {
         let TableRow { j, ty } = self.row;
         let (k0, k1) = (j * N + self.i, (j + 1) * N + self.i);
         let (r0, r1) = (&table[k0..k0 + 2], &table[k1..k1 + 2]);
-        let a = r0[0] * (1.0 - self.tx) + r0[1] * self.tx;
-        let b = r1[0] * (1.0 - self.tx) + r1[1] * self.tx;
-        a * (1.0 - ty) + b * ty
+        let a = r0[0] * (1.0 - ty) + r1[0] * ty;
+        let b = r0[1] * (1.0 - ty) + r1[1] * ty;
+        a * (1.0 - self.tx) + b * self.tx
     }
 }
 
@@ -302,7 +305,7 @@ mod tests {
     use crate::bsdf::microfacet;
 
     #[test]
-    fn a_roughness_rows_read_what_the_tables_do() {
+    fn a_roughness_rows_read_what_the_tables_do_bit_for_bit() {
         let t = tables();
         for r in 0..=200 {
             let roughness = r as f32 / 200.0;
@@ -310,7 +313,7 @@ mod tests {
             for m in 0..=1000 {
                 let mu = m as f32 / 1000.0;
                 let ((e, layer), (e1, layer1)) = (t.e_and_layer(mu, roughness), rows.at(mu));
-                assert!((e - e1).abs() < 1e-6 && (layer - layer1).abs() < 1e-6, "roughness {roughness}, mu {mu}: {e} {e1}, {layer} {layer1}");
+                assert!(e.to_bits() == e1.to_bits() && layer.to_bits() == layer1.to_bits(), "roughness {roughness}, mu {mu}: {e} {e1}, {layer} {layer1}");
             }
         }
     }
@@ -368,10 +371,12 @@ mod tests {
     fn the_joint_lookup_is_both_lookups_bit_for_bit() {
         let t = tables();
         let rows = |table: &[f32], mu: f32, roughness: f32| {
+            // Across the two rows, then along μ as lerp_grid does.
             let (x, y) = (column(mu), row(roughness));
             let j = (y as usize).min(N - 2);
-            let (a, b) = (lerp_grid(&table[j * N..(j + 1) * N], x), lerp_grid(&table[(j + 1) * N..(j + 2) * N], x));
-            a * (1.0 - (y - j as f32)) + b * (y - j as f32)
+            let ty = y - j as f32;
+            let across: Vec<f32> = (0..N).map(|i| table[j * N + i] * (1.0 - ty) + table[(j + 1) * N + i] * ty).collect();
+            lerp_grid(&across, x)
         };
         for ri in 0..=40 {
             for mi in 0..=40 {
