@@ -34,6 +34,9 @@ pub struct EnvironmentMap {
     columns: Vec<Distribution1D>,
     /// Mean radiance over the sphere (for the light's power).
     pub mean: Vec3,
+    /// Mean over the sphere of the luminance above lum(mean): the part of
+    /// the World light sampling is for (lights.rs).
+    pub excess: f32,
 }
 
 const SAMPLER: Sampler = Sampler { wrap_s: Wrap::Repeat, wrap_t: Wrap::ClampToEdge, nearest: false };
@@ -65,12 +68,22 @@ impl EnvironmentMap {
             }
         }
         // ∫ sinθ dθ dφ over the texels = 4π; each texel spans (π/h)(2π/w).
-        let mean = (mean * (2.0 * std::f64::consts::PI * std::f64::consts::PI / (w as f64 * h as f64)) / (4.0 * std::f64::consts::PI)).as_vec3a() * strength;
+        let per_texel = 2.0 * std::f64::consts::PI * std::f64::consts::PI / (w as f64 * h as f64) / (4.0 * std::f64::consts::PI);
+        let mean_luminance = luminance((mean * per_texel).as_vec3a());
+        let excess: f64 = (0..h)
+            .map(|y| {
+                let sin_theta = (PI * (y as f32 + 0.5) / h as f32).sin();
+                // weights hold lum·sinθ.
+                weights[(y * w) as usize..((y + 1) * w) as usize].iter().map(|&v| (v - (mean_luminance * sin_theta) as f64).max(0.0)).sum::<f64>()
+            })
+            .sum();
+        let excess = (excess * per_texel) as f32 * strength;
+        let mean = (mean * per_texel).as_vec3a() * strength;
         let floor = 0.01 * weights.iter().sum::<f64>() / weights.len() as f64;
         let floor = if floor > 0.0 { floor } else { 1.0 };
         let columns: Vec<Distribution1D> = weights.chunks(w as usize).map(|row| Distribution1D::new(row.iter().map(|v| v + floor))).collect();
         let rows = Distribution1D::new(columns.iter().map(|c| c.total()));
-        EnvironmentMap { image, encoding, strength, rotation, rows, columns, mean }
+        EnvironmentMap { image, encoding, strength, rotation, rows, columns, mean, excess }
     }
 
     fn blender_direction(&self, g: Vec3) -> Vec3 {
@@ -203,6 +216,19 @@ mod tests {
         assert!((uniform.radiance(Vec3::new(0.3, 0.5, -0.8).normalize()) - Vec3::splat(1.5)).abs().max_element() < 1e-6);
         // Σ sinθ·Δθ·Δφ over 4 rows is within 3% of 4π (midpoint rule).
         assert!((uniform.mean - Vec3::splat(1.5)).abs().max_element() < 0.05, "{}", uniform.mean);
+    }
+
+    #[test]
+    fn the_excess_is_the_mean_luminance_above_the_mean() {
+        let uniform = EnvironmentMap::new(Image { name: "u".into(), width: 8, height: 4, texels: Texels::RgbaF32(vec![[0.5; 4]; 32]) }, 3.0, 0.0);
+        assert!(uniform.excess.abs() < 1e-6, "{}", uniform.excess);
+        // Radiance 2 above the horizon, 0 below: mean 1, and 1 above it over
+        // half the sphere. Rows straddle no horizon, so the midpoint rule's
+        // rows cover each half by the same weight.
+        let (w, h) = (16u32, 64u32);
+        let texels = (0..w * h).map(|i| if i / w < h / 2 { [2.0, 2.0, 2.0, 1.0] } else { [0.0; 4] }).collect();
+        let half = EnvironmentMap::new(Image { name: "h".into(), width: w, height: h, texels: Texels::RgbaF32(texels) }, 1.0, 0.0);
+        assert!((half.mean.x - 1.0).abs() < 1e-3 && (half.excess - 0.5).abs() < 1e-3, "{} {}", half.mean, half.excess);
     }
 
     #[test]

@@ -126,6 +126,13 @@ impl Scene {
         self.environment.as_ref().map_or(self.background, |m| m.mean)
     }
 
+    /// The mean over the sphere of the World's luminance above its mean
+    /// luminance: 0 for a constant World (lights.rs weighs the World by
+    /// it).
+    pub fn world_excess(&self) -> f32 {
+        self.environment.as_ref().map_or(0.0, |m| m.excess)
+    }
+
     /// Whether the World gives any light.
     pub fn has_world(&self) -> bool {
         self.world_mean() != Vec3::ZERO
