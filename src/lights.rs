@@ -109,7 +109,7 @@ impl Nearness {
 /// The cone of emitting triangles' normals (axis, cos and sin of its
 /// half-angle), `powers` their weights, where each is one-sided and the
 /// cone is narrower than a hemisphere; else None (a two-sided emitter
-/// shines every way, as do points and spots, which the caller checks).
+/// shines every way).
 fn emitter_cone(scene: &Scene, triangles: &[u32], powers: &[f64]) -> Option<(Vec3, f32, f32)> {
     if triangles.is_empty() {
         return None;
@@ -141,28 +141,52 @@ fn emitters(scene: &Scene, triangles: &[u32]) -> Vec<Emitter> {
     out
 }
 
-/// The local lights as a light tree's root node sees them: power of
-/// emitting triangles, points and spots (W), the centre and squared radius
-/// of a sphere holding them and, where every one is a one-sided emitting
-/// triangle and their normals lie within 90° of a common axis, that axis
-/// and the cosine and sine of the cone's half-angle.
+/// The local lights as a light tree's nodes would see them, emitting
+/// triangles and points/spots apart, so that a bulb beside a lamp does not
+/// hide which way the lamp shines.
 struct LocalBound {
+    emitters: Bound,
+    points: Bound,
+}
+
+impl LocalBound {
+    /// An estimate of the local lights' irradiance at `p` on a surface
+    /// facing them (W·m⁻²), as the World's π·L̄ is on an open surface.
+    fn irradiance(&self, p: Vec3) -> f32 {
+        self.emitters.irradiance(p) + self.points.irradiance(p)
+    }
+}
+
+/// Some lights' power (W), the centre and squared radius of a sphere
+/// holding them and, where every one is a one-sided emitting triangle and
+/// their normals lie within 90° of a common axis, that axis and the cosine
+/// and sine of the cone's half-angle.
+#[derive(Default)]
+struct Bound {
     power: f32,
     centre: Vec3,
     radius2: f32,
     cone: Option<(Vec3, f32, f32)>,
 }
 
-impl LocalBound {
-    /// An estimate of the local lights' irradiance at `p` on a surface
-    /// facing them (W·m⁻²), as the World's π·L̄ is on an open surface. A
-    /// point light gives I/d² = P/(4π d²); a one-sided Lambertian emitter
-    /// has I(θ) = (P/π) cos θ, four times that in front of it and nothing
-    /// behind, which the isotropic estimate missed: in front of a Blender
-    /// area light, the World took three to ten times the light samples
-    /// its light is worth there (MIS gives a constant World to the BSDF
-    /// samples anyway).
+impl Bound {
+    /// `power` watts from points within `lo..hi` (empty: no light).
+    fn new(power: f64, lo: Vec3, hi: Vec3, cone: Option<(Vec3, f32, f32)>) -> Self {
+        if !(power > 0.0 && lo.x <= hi.x) {
+            return Bound::default();
+        }
+        Bound { power: power as f32, centre: 0.5 * (lo + hi), radius2: (0.5 * (hi - lo)).length_squared(), cone }
+    }
+
+    /// A point light gives I/d² = P/(4π d²); a one-sided Lambertian
+    /// emitter has I(θ) = (P/π) cos θ, four times that in front of it and
+    /// nothing behind, which the isotropic estimate missed: in front of a
+    /// Blender area light the World took more light samples than its light
+    /// was worth there.
     fn irradiance(&self, p: Vec3) -> f32 {
+        if !(self.power > 0.0) {
+            return 0.0;
+        }
         let v = p - self.centre;
         let dist2 = v.length_squared();
         let d2 = dist2.max(self.radius2).max(1e-12);
@@ -254,13 +278,16 @@ impl Lights {
             let radius = scene_radius(scene);
             powers.extend(scene.punctual.iter().map(|l| l.power(radius)));
         }
-        // Where the local lights are, and their power.
-        let (mut lo, mut hi, mut local_power, mut suns) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64, Vec::new());
+        // Where the local lights are, and their power: emitting triangles
+        // and points/spots apart.
+        let (mut lo, mut hi, mut emitted, mut suns) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64, Vec::new());
         for (&t, &power) in triangles.iter().zip(&powers) {
             let tri = &scene.triangles[t as usize];
             tri.p().iter().for_each(|&v| (lo, hi) = (lo.min(v), hi.max(v)));
-            local_power += power;
+            emitted += power;
         }
+        let emitter_bound = Bound::new(emitted, lo, hi, emitter_cone(scene, &triangles, &powers[..triangles.len()]));
+        let (mut lo, mut hi, mut pointed) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64);
         for (index, (light, power)) in scene.punctual.iter().zip(&mut powers[triangles.len()..]).enumerate() {
             if let crate::punctual::PunctualKind::Sun = light.kind {
                 let irradiance = luminance(light.intensity);
@@ -270,13 +297,10 @@ impl Lights {
                 *power = 0.0;
             } else {
                 (lo, hi) = (lo.min(light.position), hi.max(light.position));
-                local_power += *power;
+                pointed += *power;
             }
         }
-        let (local_centre, local_radius2) = if lo.x <= hi.x { (0.5 * (lo + hi), (0.5 * (hi - lo)).length_squared()) } else { (Vec3::ZERO, 0.0) };
-        let point_lights = scene.punctual.iter().any(|l| !matches!(l.kind, crate::punctual::PunctualKind::Sun));
-        let cone = if point_lights { None } else { emitter_cone(scene, &triangles, &powers[..triangles.len()]) };
-        let local = LocalBound { power: local_power as f32, centre: local_centre, radius2: local_radius2, cone };
+        let local = LocalBound { emitters: emitter_bound, points: Bound::new(pointed, lo, hi, None) };
         let world_irradiance = if scene.has_world() { std::f32::consts::PI * luminance(scene.world_mean()) } else { 0.0 };
         // A twentieth of its irradiance at least: without MIS (the seed's
         // rule) only light samples see the World, which must then be
@@ -579,6 +603,15 @@ mod tests {
         assert!(edge_on > 0.0 && edge_on < 0.1 * on_axis, "{edge_on}");
         assert_eq!(lights.world_probability(behind), 0.95);
         assert!(lights.world_probability(front) < lights.world_probability(side));
+        // A bulb beside the lamp adds its own P/(4π d²) to the lamp's.
+        let mut bulb = scene.clone();
+        bulb.punctual.push(PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 0.0, 0.5), direction: -Vec3::Z, intensity: Vec3::splat(2.0), size: 0.0, sphere: false, camera_sees: false });
+        let with_bulb = Lights::new(&bulb);
+        let bulb_power = bulb.punctual[0].power(scene_radius(&bulb)) as f32;
+        for p in [front, behind] {
+            let expected = lights.local.irradiance(p) + bulb_power / (4.0 * std::f32::consts::PI * (p - Vec3::new(0.0, 0.0, 0.5)).length_squared());
+            assert!((with_bulb.local.irradiance(p) - expected).abs() < 1e-5 * expected, "{} {expected}", with_bulb.local.irradiance(p));
+        }
         let mut two_sided = scene.clone();
         two_sided.materials[0].double_sided = true;
         let lights = Lights::new(&two_sided);
