@@ -103,9 +103,6 @@ impl Nearness {
     }
 }
 
-/// The emitters' records: consecutive emitting triangles of one material
-/// that make a parallelogram (a quad as exporters write it) are sampled as
-/// one (parallelogram.rs).
 /// The cone of emitting triangles' normals (axis, cos and sin of its
 /// half-angle), `powers` their weights, where each is one-sided and the
 /// cone is narrower than a hemisphere; else None (a two-sided emitter
@@ -123,6 +120,9 @@ fn emitter_cone(scene: &Scene, triangles: &[u32], powers: &[f64]) -> Option<(Vec
     (axis != Vec3::ZERO && cos_o > 0.0).then(|| (axis, cos_o, (1.0 - cos_o * cos_o).max(0.0).sqrt()))
 }
 
+/// The emitters' records: consecutive emitting triangles of one material
+/// that make a parallelogram (a quad as exporters write it) are sampled as
+/// one (parallelogram.rs).
 fn emitters(scene: &Scene, triangles: &[u32]) -> Vec<Emitter> {
     let mut out: Vec<Emitter> = triangles.iter().map(|&t| &scene.triangles[t as usize]).map(|t| Emitter { normal: t.cross().normalize(), area: t.area(), nearness: Nearness::of(t), quad: None }).collect();
     let mut k = 0;
