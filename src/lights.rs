@@ -103,21 +103,35 @@ impl Nearness {
     }
 }
 
-/// The cone of emitting triangles' normals (axis, cos and sin of its
-/// half-angle), `powers` their weights, where each is one-sided and the
-/// cone is narrower than a hemisphere; else None (a two-sided emitter
-/// shines every way).
-fn emitter_cone(scene: &Scene, triangles: &[u32], powers: &[f64]) -> Option<(Vec3, f32, f32)> {
-    if triangles.is_empty() {
+/// The cone of emitting triangles' normals, `powers` their weights, where
+/// all are one-sided, or all two-sided (a panel lit both ways: each normal
+/// taken on the first one's side), and the cone is narrower than a
+/// hemisphere; else None.
+fn emitter_cone(scene: &Scene, triangles: &[u32], powers: &[f64]) -> Option<Cone> {
+    let &first = triangles.first()?;
+    let double_sided = |t: u32| scene.materials[scene.triangles[t as usize].material as usize].double_sided;
+    let both_ways = double_sided(first);
+    if triangles.iter().any(|&t| double_sided(t) != both_ways) {
         return None;
     }
     let normals: Vec<Vec3> = triangles.iter().map(|&t| scene.triangles[t as usize].cross().normalize_or_zero()).collect();
-    if triangles.iter().any(|&t| scene.materials[scene.triangles[t as usize].material as usize].double_sided) || normals.contains(&Vec3::ZERO) {
+    if normals.contains(&Vec3::ZERO) {
         return None;
     }
-    let axis = normals.iter().zip(powers).fold(Vec3::ZERO, |a, (&n, &w)| a + n * w as f32).normalize_or_zero();
-    let cos_o = normals.iter().map(|n| n.dot(axis)).fold(1.0f32, f32::min);
-    (axis != Vec3::ZERO && cos_o > 0.0).then(|| (axis, cos_o, (1.0 - cos_o * cos_o).max(0.0).sqrt()))
+    let side = |n: Vec3| if both_ways && n.dot(normals[0]) < 0.0 { -n } else { n };
+    let axis = normals.iter().zip(powers).fold(Vec3::ZERO, |a, (&n, &w)| a + side(n) * w as f32).normalize_or_zero();
+    let cos_o = normals.iter().map(|&n| side(n).dot(axis)).fold(1.0f32, f32::min);
+    (axis != Vec3::ZERO && cos_o > 0.0).then(|| Cone { axis, cos_o, sin_o: (1.0 - cos_o * cos_o).max(0.0).sqrt(), both_ways })
+}
+
+/// Which way some emitters shine: within `cos_o` of `axis`, and of −axis
+/// too where they are two-sided.
+#[derive(Clone, Copy, Debug)]
+struct Cone {
+    axis: Vec3,
+    cos_o: f32,
+    sin_o: f32,
+    both_ways: bool,
 }
 
 /// The emitters' records: consecutive emitting triangles of one material
@@ -158,20 +172,19 @@ impl LocalBound {
 }
 
 /// Some lights' power (W), the centre and squared radius of a sphere
-/// holding them and, where every one is a one-sided emitting triangle and
-/// their normals lie within 90° of a common axis, that axis and the cosine
-/// and sine of the cone's half-angle.
+/// holding them and, for emitting triangles whose normals lie within 90°
+/// of a common axis, that cone (the power is then one face's).
 #[derive(Default)]
 struct Bound {
     power: f32,
     centre: Vec3,
     radius2: f32,
-    cone: Option<(Vec3, f32, f32)>,
+    cone: Option<Cone>,
 }
 
 impl Bound {
     /// `power` watts from points within `lo..hi` (empty: no light).
-    fn new(power: f64, lo: Vec3, hi: Vec3, cone: Option<(Vec3, f32, f32)>) -> Self {
+    fn new(power: f64, lo: Vec3, hi: Vec3, cone: Option<Cone>) -> Self {
         if !(power > 0.0 && lo.x <= hi.x) {
             return Bound::default();
         }
@@ -182,7 +195,7 @@ impl Bound {
     /// emitter has I(θ) = (P/π) cos θ, four times that in front of it and
     /// nothing behind, which the isotropic estimate missed: in front of a
     /// Blender area light the World took more light samples than its light
-    /// was worth there.
+    /// was worth there. A two-sided panel gives (P/π)|cos θ|, P one face's.
     fn irradiance(&self, p: Vec3) -> f32 {
         if !(self.power > 0.0) {
             return 0.0;
@@ -190,7 +203,7 @@ impl Bound {
         let v = p - self.centre;
         let dist2 = v.length_squared();
         let d2 = dist2.max(self.radius2).max(1e-12);
-        let Some((axis, cos_o, sin_o)) = self.cone else { return self.power / (4.0 * std::f32::consts::PI * d2) };
+        let Some(Cone { axis, cos_o, sin_o, both_ways }) = self.cone else { return self.power / (4.0 * std::f32::consts::PI * d2) };
         // The bound of the cosine over the cone of normals and the lights'
         // sphere as seen from p: cos(max(θ − θo − θu, 0)) (Conty Estevez
         // and Kulla 2018), θu the sphere's angular radius.
@@ -198,6 +211,7 @@ impl Bound {
             1.0
         } else {
             let cos_t = axis.dot(v) / dist2.sqrt();
+            let cos_t = if both_ways { cos_t.abs() } else { cos_t };
             let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
             let sin_u2 = self.radius2 / dist2;
             let (sin_u, cos_u) = (sin_u2.sqrt(), (1.0 - sin_u2).max(0.0).sqrt());
@@ -286,7 +300,13 @@ impl Lights {
             tri.p().iter().for_each(|&v| (lo, hi) = (lo.min(v), hi.max(v)));
             emitted += power;
         }
-        let emitter_bound = Bound::new(emitted, lo, hi, emitter_cone(scene, &triangles, &powers[..triangles.len()]));
+        // Powers count one face; isotropically, a two-sided emitter shines
+        // with both.
+        let cone = emitter_cone(scene, &triangles, &powers[..triangles.len()]);
+        if cone.is_none() {
+            emitted += triangles.iter().zip(&powers).filter(|&(&t, _)| scene.materials[scene.triangles[t as usize].material as usize].double_sided).map(|(_, &p)| p).sum::<f64>();
+        }
+        let emitter_bound = Bound::new(emitted, lo, hi, cone);
         let (mut lo, mut hi, mut pointed) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64);
         for (index, (light, power)) in scene.punctual.iter().zip(&mut powers[triangles.len()..]).enumerate() {
             if let crate::punctual::PunctualKind::Sun = light.kind {
@@ -580,9 +600,10 @@ mod tests {
     }
 
     /// A one-sided emitter's light is estimated as a Lambertian emitter
-    /// gives it, (P/π)·cos θ/d², with nothing behind it; a two-sided one
-    /// (or a point light) as P/(4π d²) every way. So the World's share is
-    /// small in front of a one-sided lamp and 0.95 behind it.
+    /// gives it, (P/π)·cos θ/d², with nothing behind it; a two-sided panel
+    /// as (P/π)|cos θ|/d²; a point light, or emitters one- and two-sided
+    /// together, as P/(4π d²) every way. So the World's share is small in
+    /// front of a one-sided lamp and 0.95 behind it.
     #[test]
     fn one_sided_lamps_light_what_is_in_front_of_them() {
         let square = [Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5, 0.0), Vec3::new(0.5, 0.5, 0.0), Vec3::new(-0.5, 0.5, 0.0)];
@@ -612,13 +633,25 @@ mod tests {
             let expected = lights.local.irradiance(p) + bulb_power / (4.0 * std::f32::consts::PI * (p - Vec3::new(0.0, 0.0, 0.5)).length_squared());
             assert!((with_bulb.local.irradiance(p) - expected).abs() < 1e-5 * expected, "{} {expected}", with_bulb.local.irradiance(p));
         }
+        // A two-sided panel shines both ways, a face's power each way.
         let mut two_sided = scene.clone();
         two_sided.materials[0].double_sided = true;
         let lights = Lights::new(&two_sided);
         for p in [front, behind] {
-            let isotropic = power / (4.0 * std::f32::consts::PI * 100.0);
-            assert!((lights.local.irradiance(p) - isotropic).abs() < 1e-6 * isotropic);
+            assert!((lights.local.irradiance(p) - on_axis).abs() < 1e-6 * on_axis, "{}", lights.local.irradiance(p));
         }
+        assert!(lights.local.irradiance(side) < 0.1 * on_axis);
+        // One-sided and two-sided together: isotropic, both faces counted.
+        let mut mixed = two_sided.clone();
+        mixed.materials.push(Material { emission: Vec3::splat(10.0), ..Material::default() });
+        let far_tri = Triangle::new([Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 1.0, -1.0)], [Vec3::Z; 3], 1);
+        mixed.triangles.push(far_tri);
+        let lights = Lights::new(&mixed);
+        let total = 2.0 * power + std::f32::consts::PI * 0.5 * 10.0;
+        let p = Vec3::new(0.0, 0.0, 100.0);
+        let d2 = (p - lights.local.emitters.centre).length_squared();
+        let isotropic = total / (4.0 * std::f32::consts::PI * d2);
+        assert!((lights.local.irradiance(p) - isotropic).abs() < 1e-5 * isotropic, "{} {isotropic}", lights.local.irradiance(p));
     }
 
     /// A constant World is weighed by a twentieth of its irradiance, so
