@@ -103,24 +103,24 @@ impl Nearness {
     }
 }
 
-/// The cone of emitting triangles' normals, `powers` their weights, where
-/// all are one-sided, or all two-sided (a panel lit both ways: each normal
-/// taken on the first one's side), and the cone is narrower than a
-/// hemisphere; else None.
-fn emitter_cone(scene: &Scene, triangles: &[u32], powers: &[f64]) -> Option<Cone> {
-    let &first = triangles.first()?;
-    let double_sided = |t: u32| scene.materials[scene.triangles[t as usize].material as usize].double_sided;
-    let both_ways = double_sided(first);
-    if triangles.iter().any(|&t| double_sided(t) != both_ways) {
+/// Whether scene triangle `t` emits from both faces.
+fn double_sided(scene: &Scene, t: u32) -> bool {
+    scene.materials[scene.triangles[t as usize].material as usize].double_sided
+}
+
+/// The cone of emitting triangles' normals (their `records`), `powers`
+/// their weights, where all are one-sided, or all two-sided (a panel lit
+/// both ways: each normal taken on the first one's side), and the cone is
+/// narrower than a hemisphere; else None.
+fn emitter_cone(scene: &Scene, triangles: &[u32], records: &[Emitter], powers: &[f64]) -> Option<Cone> {
+    let (&first, first_record) = (triangles.first()?, records.first()?);
+    let both_ways = double_sided(scene, first);
+    if triangles.iter().any(|&t| double_sided(scene, t) != both_ways) || records.iter().any(|e| !e.normal.is_finite()) {
         return None;
     }
-    let normals: Vec<Vec3> = triangles.iter().map(|&t| scene.triangles[t as usize].cross().normalize_or_zero()).collect();
-    if normals.contains(&Vec3::ZERO) {
-        return None;
-    }
-    let side = |n: Vec3| if both_ways && n.dot(normals[0]) < 0.0 { -n } else { n };
-    let axis = normals.iter().zip(powers).fold(Vec3::ZERO, |a, (&n, &w)| a + side(n) * w as f32).normalize_or_zero();
-    let cos_o = normals.iter().map(|&n| side(n).dot(axis)).fold(1.0f32, f32::min);
+    let side = |n: Vec3| if both_ways && n.dot(first_record.normal) < 0.0 { -n } else { n };
+    let axis = records.iter().zip(powers).fold(Vec3::ZERO, |a, (e, &w)| a + side(e.normal) * w as f32).normalize_or_zero();
+    let cos_o = records.iter().map(|e| side(e.normal).dot(axis)).fold(1.0f32, f32::min);
     (axis != Vec3::ZERO && cos_o > 0.0).then(|| Cone { axis, cos_o, sin_o: (1.0 - cos_o * cos_o).max(0.0).sqrt(), both_ways })
 }
 
@@ -302,9 +302,10 @@ impl Lights {
         }
         // Powers count one face; isotropically, a two-sided emitter shines
         // with both.
-        let cone = emitter_cone(scene, &triangles, &powers[..triangles.len()]);
+        let records = emitters(scene, &triangles);
+        let cone = emitter_cone(scene, &triangles, &records, &powers[..triangles.len()]);
         if cone.is_none() {
-            emitted += triangles.iter().zip(&powers).filter(|&(&t, _)| scene.materials[scene.triangles[t as usize].material as usize].double_sided).map(|(_, &p)| p).sum::<f64>();
+            emitted += triangles.iter().zip(&powers).filter(|&(&t, _)| double_sided(scene, t)).map(|(_, &p)| p).sum::<f64>();
         }
         let emitter_bound = Bound::new(emitted, lo, hi, cone);
         let (mut lo, mut hi, mut pointed) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f64);
@@ -331,7 +332,7 @@ impl Lights {
         Lights {
             // π/P_total once: a division in f64 had been a tenth of a light sample.
             area_pdf_per_luminance: if distribution.total() > 0.0 { (std::f64::consts::PI / distribution.total()) as f32 } else { 0.0 },
-            emitters: emitters(scene, &triangles),
+            emitters: records,
             triangles,
             distribution,
             world_irradiance,
@@ -654,6 +655,17 @@ mod tests {
         assert!((lights.local.irradiance(p) - isotropic).abs() < 1e-5 * isotropic, "{} {isotropic}", lights.local.irradiance(p));
     }
 
+    /// An emitting triangle (normal +Z, radiance 10) under a uniform World
+    /// of 0.5.
+    fn lamp_under_a_world() -> Scene {
+        let tri = Triangle::new([Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z; 3], 0);
+        let lamp = Material { emission: Vec3::splat(10.0), ..Material::default() };
+        let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
+        let mut scene = Scene::new(vec![tri], vec![lamp], camera);
+        scene.background = Vec3::splat(0.5);
+        scene
+    }
+
     /// A constant World is weighed by a twentieth of its irradiance, so
     /// beside a lamp it gets the 5% floor of the light samples; one whose
     /// light is uneven by the part above its mean (here half the sphere at
@@ -663,11 +675,7 @@ mod tests {
     fn the_world_is_weighed_by_its_light_above_its_mean() {
         use crate::environment::EnvironmentMap;
         use crate::texture::{Image, Texels};
-        let tri = Triangle::new([Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z; 3], 0);
-        let lamp = Material { emission: Vec3::splat(10.0), ..Material::default() };
-        let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
-        let mut scene = Scene::new(vec![tri], vec![lamp], camera);
-        scene.background = Vec3::splat(0.5);
+        let mut scene = lamp_under_a_world();
         let p = Vec3::new(0.3, 0.3, 1.0);
         assert_eq!(Lights::new(&scene).world_probability(p), 0.05);
         let (w, h) = (16u32, 64u32);
@@ -695,11 +703,7 @@ mod tests {
     /// the densities of all choices still sum to 1.
     #[test]
     fn the_worlds_share_follows_the_distance_to_the_other_lights() {
-        let tri = Triangle::new([Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z; 3], 0);
-        let lamp = Material { emission: Vec3::splat(10.0), ..Material::default() };
-        let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
-        let mut scene = Scene::new(vec![tri], vec![lamp], camera);
-        scene.background = Vec3::splat(0.5);
+        let scene = lamp_under_a_world();
         let lights = Lights::new(&scene);
         let (near, far) = (Vec3::new(0.3, 0.3, 0.1), Vec3::new(0.0, 0.0, 30.0));
         let (pn, pf) = (lights.world_probability(near), lights.world_probability(far));
