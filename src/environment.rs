@@ -58,8 +58,8 @@ impl EnvironmentMap {
         let (w, h) = (image.width, image.height);
         let mut weights = vec![0.0f64; (w * h) as usize];
         let mut mean = Vec3::ZERO.as_dvec3();
-        for y in 0..h {
-            let sin_theta = (PI * (y as f32 + 0.5) / h as f32).sin();
+        let sin_thetas: Vec<f32> = (0..h).map(|y| (PI * (y as f32 + 0.5) / h as f32).sin()).collect();
+        for (y, &sin_theta) in (0..h).zip(&sin_thetas) {
             for x in 0..w {
                 let c = Vec3::from_vec4(image.texel(x, y, encoding));
                 let c = if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO };
@@ -70,12 +70,11 @@ impl EnvironmentMap {
         // ∫ sinθ dθ dφ over the texels = 4π; each texel spans (π/h)(2π/w).
         let per_texel = 2.0 * std::f64::consts::PI * std::f64::consts::PI / (w as f64 * h as f64) / (4.0 * std::f64::consts::PI);
         let mean_luminance = luminance((mean * per_texel).as_vec3a());
-        let excess: f64 = (0..h)
-            .map(|y| {
-                let sin_theta = (PI * (y as f32 + 0.5) / h as f32).sin();
-                // weights hold lum·sinθ.
-                weights[(y * w) as usize..((y + 1) * w) as usize].iter().map(|&v| (v - (mean_luminance * sin_theta) as f64).max(0.0)).sum::<f64>()
-            })
+        // weights hold lum·sinθ.
+        let excess: f64 = weights
+            .chunks(w as usize)
+            .zip(&sin_thetas)
+            .map(|(row, &sin_theta)| row.iter().map(|&v| (v - (mean_luminance * sin_theta) as f64).max(0.0)).sum::<f64>())
             .sum();
         let excess = (excess * per_texel) as f32 * strength;
         let mean = (mean * per_texel).as_vec3a() * strength;

@@ -108,9 +108,7 @@ impl PrincipledLobes {
             base_luminance: luminance(base),
         }
     }
-}
 
-impl PrincipledLobes {
     /// The lobes a material keeps where its surface is the same at every
     /// point, with its own 1-D energy rows: `e_and_layer_in` and the rest
     /// of `PrincipledBsdf::at` had been 6% of a render's time (perf).
