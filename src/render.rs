@@ -15,6 +15,7 @@ use crate::Vec3;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 pub const TILE: u32 = 16;
 /// Sample indices whose light subpaths are traced together: 4 × 1,024
@@ -203,7 +204,12 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         } else {
             None
         };
-        let results: Vec<Option<(u32, u32, Vec<Vec3>, PassStats)>> = tiles
+        // Each tile adds its sums into the pass's rows itself, under its
+        // band's lock (a band is a row of tiles, so pixels never share a
+        // lock holder): the pages of a fresh film are first touched by both
+        // threads, and no serial merge follows the tiles.
+        let bands: Vec<Mutex<&mut [Vec3]>> = pass_sum.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
+        let results: Vec<Option<PassStats>> = tiles
             .par_iter()
             .map(|&(x0, y0)| {
                 if cancel.load(Ordering::Relaxed) {
@@ -211,7 +217,8 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 }
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
                 let mut stats = PassStats::default();
-                let mut sums = vec![Vec3::ZERO; ((x1 - x0) * (y1 - y0)) as usize];
+                let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
+                let tw = (x1 - x0) as usize;
                 // Sample index by sample index over the tile: the light
                 // vertices a sample index's connections pick from at random
                 // (light_paths.rs) stay in cache for the whole tile, where
@@ -237,10 +244,19 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         }
                     }
                 }
-                progress(sums.len() as u64 * range.len() as u64);
-                Some((x0, y0, sums, stats))
+                let mut band = bands[(y0 / TILE) as usize].lock().unwrap_or_else(|e| e.into_inner());
+                for (row, tile_row) in sums[..tw * (y1 - y0) as usize].chunks_exact(tw).enumerate() {
+                    let start = row * w as usize + x0 as usize;
+                    for (p, s) in band[start..start + tw].iter_mut().zip(tile_row) {
+                        *p += *s;
+                    }
+                }
+                drop(band);
+                progress(tw as u64 * (y1 - y0) as u64 * range.len() as u64);
+                Some(stats)
             })
             .collect();
+        drop(bands);
         if cancel.load(Ordering::Relaxed) || results.iter().any(Option::is_none) {
             if empty {
                 pass_sum.fill(Vec3::ZERO);
@@ -248,12 +264,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
             }
             return Err(Cancelled);
         }
-        for (x0, y0, sums, stats) in results.into_iter().flatten() {
-            let tw = (x0 + TILE).min(w) - x0;
-            for (i, s) in sums.iter().enumerate() {
-                let (x, y) = (x0 + i as u32 % tw, y0 + i as u32 / tw);
-                pass_sum[(y * w + x) as usize] += *s;
-            }
+        for stats in results.into_iter().flatten() {
             total.add(&stats);
         }
     }
