@@ -491,7 +491,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     }
     // One draw: the light's point stays stratified within each pick.
     let (u_pick, u) = rng.next_1d_2d();
-    match ctx.lights.sample(ctx.scene, si.p, u_pick, u) {
+    match ctx.lights.sample(ctx.scene, si.p, u_pick, u, mis) {
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
         Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, chain, &ls, rng, rays),
@@ -502,14 +502,14 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     }
 }
 
-/// Solid-angle pdf of light sampling reaching the World along `dir` from
-/// a point `p` with geometric normal `ng`.
+/// Solid-angle pdf of light sampling (with MIS: only MIS asks) reaching
+/// the World along `dir` from a point `p` with geometric normal `ng`.
 fn world_pdf(ctx: &Context, p: Vec3, ng: Vec3, dir: Vec3) -> f32 {
     let pdf = match &ctx.scene.environment {
         Some(map) => map.pdf(dir),
         None => environment::uniform_pdf(ng, dir),
     };
-    ctx.lights.world_probability(p) * pdf
+    ctx.lights.world_probability(p, true) * pdf
 }
 
 /// One direction toward the World and its shadow ray.
@@ -635,7 +635,7 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previou
             continue;
         }
         if let Some(seen) = light.seen(o, d, t_max) {
-            l += seen.radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p) * seen.pdf);
+            l += seen.radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p, mis) * seen.pdf);
         }
     }
     l
@@ -695,7 +695,7 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
         return le;
     }
     let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng));
-    le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, t * t, cos_light), q)
+    le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, t * t, cos_light, mis), q)
 }
 
 /// Light vertex `v`'s light, reaching camera vertex `si` (BSDF `bsdf`,

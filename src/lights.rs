@@ -58,19 +58,31 @@ pub struct Lights {
     /// π·lum(L̄) of the World, its irradiance on an open surface; 0 when
     /// it is black.
     world_irradiance: f32,
-    /// The World's weight among the lights: π times the mean over the
-    /// sphere of the luminance above lum(L̄), at least a twentieth of
-    /// `world_irradiance` (all a constant World has).
-    world_weight: f32,
+    /// The distant group's weights with MIS and without.
+    with_mis: DistantWeights,
+    alone: DistantWeights,
     /// The local lights as the distant group's share sees them.
     local: LocalBound,
     /// Scene punctual index and luminance irradiance (W·m⁻²) of each sun;
     /// they have no weight in `distribution`.
     suns: Vec<(usize, f32)>,
-    /// The World's weight plus the suns' irradiance.
-    distant_weight: f32,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
+}
+
+/// The World's weight among the lights, and the distant group's (the
+/// World's plus the suns' irradiance). Without MIS (the seed's rule) only
+/// light samples see the World, so its weight is all its irradiance. With
+/// MIS, a BSDF sample already captures a constant World well, and light
+/// samples spent on it only make the other lights' estimates noisier
+/// (Karlík et al. 2019, MIS compensation): its weight is π times the mean
+/// over the sphere of the luminance above lum(L̄) — zero for a constant
+/// World, which then light samples leave to BSDF samples wherever there
+/// is another light to sample.
+#[derive(Clone, Copy, Debug)]
+struct DistantWeights {
+    world: f32,
+    total: f32,
 }
 
 /// An emitting triangle's unit face normal, area and nearness, and the
@@ -323,10 +335,9 @@ impl Lights {
         }
         let local = LocalBound { emitters: emitter_bound, points: Bound::new(pointed, lo, hi, None) };
         let world_irradiance = if scene.has_world() { std::f32::consts::PI * luminance(scene.world_mean()) } else { 0.0 };
-        // A twentieth of its irradiance at least: without MIS (the seed's
-        // rule) only light samples see the World, which must then be
-        // picked beside a sun.
-        let world_weight = if world_irradiance > 0.0 { (std::f32::consts::PI * scene.world_excess()).max(0.05 * world_irradiance) } else { 0.0 };
+        let world_excess = if world_irradiance > 0.0 { std::f32::consts::PI * scene.world_excess() } else { 0.0 };
+        let sunlight = suns.iter().map(|&(_, e)| e).sum::<f32>();
+        let weights = |world: f32| DistantWeights { world, total: world + sunlight };
         let distribution = Distribution1D::new(powers);
         let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
         Lights {
@@ -336,9 +347,9 @@ impl Lights {
             triangles,
             distribution,
             world_irradiance,
-            world_weight,
+            with_mis: weights(world_excess),
+            alone: weights(world_irradiance),
             local,
-            distant_weight: world_weight + suns.iter().map(|&(_, e)| e).sum::<f32>(),
             suns,
             sized,
         }
@@ -358,38 +369,49 @@ impl Lights {
         self.has_world() || !self.suns.is_empty()
     }
 
+    fn distant_weights(&self, mis: bool) -> &DistantWeights {
+        if mis { &self.with_mis } else { &self.alone }
+    }
+
     /// The probability of picking the distant group (World and suns) for a
-    /// point at `p`: 1 without local lights, else its share of the
+    /// point at `p`: 1 without local lights, 0 where the group weighs
+    /// nothing (a constant World under MIS), else its share of the
     /// estimated irradiance, kept in [0.05, 0.95] so that neither side
     /// starves where the estimate is crude.
-    fn distant_probability(&self, p: Vec3) -> f32 {
+    fn distant_probability(&self, p: Vec3, mis: bool) -> f32 {
         if !self.has_distant() {
             return 0.0;
         }
         if self.distribution.is_empty() {
             return 1.0;
         }
-        let share = self.distant_weight / (self.distant_weight + self.local.irradiance(p));
+        let weight = self.distant_weights(mis).total;
+        if !(weight > 0.0) {
+            return 0.0;
+        }
+        let share = weight / (weight + self.local.irradiance(p));
         if share.is_finite() { share.clamp(0.05, 0.95) } else { 0.5 }
     }
 
-    /// The World's share of the distant group's picks.
-    fn world_in_group(&self) -> f32 {
-        self.world_weight / self.distant_weight
+    /// The World's share of the distant group's picks: all of them when
+    /// the World is the only light.
+    fn world_in_group(&self, mis: bool) -> f32 {
+        let DistantWeights { world, total } = *self.distant_weights(mis);
+        if total > 0.0 { world / total } else { 1.0 }
     }
 
     /// The probability of picking the World for a point at `p`.
-    pub fn world_probability(&self, p: Vec3) -> f32 {
+    pub fn world_probability(&self, p: Vec3, mis: bool) -> f32 {
         if !self.has_world() {
             return 0.0;
         }
-        self.distant_probability(p) * self.world_in_group()
+        self.distant_probability(p, mis) * self.world_in_group(mis)
     }
 
     /// Area density of every point on an emitter of radiance `le`, for a
     /// point at `p`.
-    pub fn pdf_area(&self, le: Vec3, p: Vec3) -> f32 {
-        (1.0 - self.distant_probability(p)) * self.local_pdf_area(le)
+    pub fn pdf_area(&self, le: Vec3, p: Vec3, mis: bool) -> f32 {
+        (1.0 - self.distant_probability(p, mis)) * self.local_pdf_area(le)
     }
 
     /// The same, once a local light is to be picked.
@@ -399,35 +421,37 @@ impl Lights {
 
     /// The probability `sample` picks scene punctual light `index` for a
     /// point at `p`.
-    pub fn punctual_probability(&self, index: usize, p: Vec3) -> f32 {
+    pub fn punctual_probability(&self, index: usize, p: Vec3, mis: bool) -> f32 {
         if let Some(&(_, irradiance)) = self.suns.iter().find(|&&(i, _)| i == index) {
-            return self.distant_probability(p) * (irradiance / self.distant_weight);
+            return self.distant_probability(p, mis) * (irradiance / self.distant_weights(mis).total);
         }
-        (1.0 - self.distant_probability(p)) * self.distribution.probability(self.triangles.len() + index) as f32
+        (1.0 - self.distant_probability(p, mis)) * self.distribution.probability(self.triangles.len() + index) as f32
     }
 
-    /// A light for a point at `p`.
-    pub fn sample(&self, scene: &Scene, p: Vec3, u_pick: f32, u: Vec2) -> Option<LightChoice> {
+    /// A light for a point at `p`, picked with the weights `mis` asks for.
+    pub fn sample(&self, scene: &Scene, p: Vec3, u_pick: f32, u: Vec2, mis: bool) -> Option<LightChoice> {
         if self.is_empty() {
             return None;
         }
-        let distant = self.distant_probability(p);
+        let distant = self.distant_probability(p, mis);
         if u_pick < distant {
             // Within the group by irradiance: the World, then each sun.
-            let mut rest = u_pick / distant * self.distant_weight - self.world_weight;
+            let weights = self.distant_weights(mis);
+            let world = self.world_in_group(mis);
+            let mut rest = u_pick / distant - world;
             if rest < 0.0 {
-                return Some(LightChoice::World { probability: self.world_probability(p) });
+                return Some(LightChoice::World { probability: distant * world });
             }
             for &(index, irradiance) in &self.suns {
-                rest -= irradiance;
+                rest -= irradiance / weights.total;
                 if rest < 0.0 {
-                    return Some(LightChoice::Punctual { index, probability: distant * (irradiance / self.distant_weight) });
+                    return Some(LightChoice::Punctual { index, probability: distant * (irradiance / weights.total) });
                 }
             }
             // Rounding past the last one: it is the last one.
             return Some(match self.suns.last() {
-                Some(&(index, irradiance)) => LightChoice::Punctual { index, probability: distant * (irradiance / self.distant_weight) },
-                None => LightChoice::World { probability: self.world_probability(p) },
+                Some(&(index, irradiance)) => LightChoice::Punctual { index, probability: distant * (irradiance / weights.total) },
+                None => LightChoice::World { probability: distant * world },
             });
         }
         let local = 1.0 - distant;
@@ -504,9 +528,9 @@ impl Lights {
     /// The density per steradian with which `sample`, from `p`, reaches
     /// the point of emitting triangle `triangle` at distance √`dist2`,
     /// where the ray meets it with cosine `cos_light`.
-    pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, dist2: f32, cos_light: f32) -> f32 {
+    pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, dist2: f32, cos_light: f32, mis: bool) -> f32 {
         let tri = &scene.triangles[triangle as usize];
-        let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission, p);
+        let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission, p, mis);
         match close_solid_angle(p, tri, &Nearness::of(tri)) {
             Some(omega) => pdf_area * tri.area() / omega,
             None => solid_angle_density(pdf_area, dist2, cos_light),
@@ -589,12 +613,12 @@ mod tests {
         let lights = Lights::new(&scene);
         assert_eq!(lights.triangles, vec![0, 1]);
         // ∫ pdf_A dA over the emitters = Σ pdf_A(Le_i) A_i = 1.
-        let total: f32 = [0, 1].iter().map(|&i| lights.pdf_area(scene.materials[i].emission, Vec3::ZERO) * 0.5).sum();
+        let total: f32 = [0, 1].iter().map(|&i| lights.pdf_area(scene.materials[i].emission, Vec3::ZERO, true) * 0.5).sum();
         // (pdf_A includes the π of π·A·Le; the density over area sums to 1.)
         assert!((total - 1.0).abs() < 1e-6);
         let mut counts = [0u32; 2];
         for k in 0..4000 {
-            let Some(LightChoice::Area(s)) = lights.sample(&scene, Vec3::ZERO, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3)) else { panic!("no light") };
+            let Some(LightChoice::Area(s)) = lights.sample(&scene, Vec3::ZERO, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3), true) else { panic!("no light") };
             counts[s.triangle as usize] += 1;
         }
         assert_eq!(counts, [1000, 3000]);
@@ -603,8 +627,9 @@ mod tests {
     /// A one-sided emitter's light is estimated as a Lambertian emitter
     /// gives it, (P/π)·cos θ/d², with nothing behind it; a two-sided panel
     /// as (P/π)|cos θ|/d²; a point light, or emitters one- and two-sided
-    /// together, as P/(4π d²) every way. So the World's share is small in
-    /// front of a one-sided lamp and 0.95 behind it.
+    /// together, as P/(4π d²) every way. So without MIS the World's share
+    /// is small in front of a one-sided lamp and 0.95 behind it; with MIS
+    /// a constant World has no share at all.
     #[test]
     fn one_sided_lamps_light_what_is_in_front_of_them() {
         let square = [Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5, 0.0), Vec3::new(0.5, 0.5, 0.0), Vec3::new(-0.5, 0.5, 0.0)];
@@ -623,8 +648,9 @@ mod tests {
         // Edge-on, the lamp's angular radius (√0.5/10) still counts.
         let edge_on = lights.local.irradiance(side);
         assert!(edge_on > 0.0 && edge_on < 0.1 * on_axis, "{edge_on}");
-        assert_eq!(lights.world_probability(behind), 0.95);
-        assert!(lights.world_probability(front) < lights.world_probability(side));
+        assert_eq!(lights.world_probability(behind, false), 0.95);
+        assert!(lights.world_probability(front, false) < lights.world_probability(side, false));
+        assert_eq!(lights.world_probability(behind, true), 0.0);
         // A bulb beside the lamp adds its own P/(4π d²) to the lamp's.
         let mut bulb = scene.clone();
         bulb.punctual.push(PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 0.0, 0.5), direction: -Vec3::Z, intensity: Vec3::splat(2.0), size: 0.0, sphere: false, camera_sees: false });
@@ -666,59 +692,74 @@ mod tests {
         scene
     }
 
-    /// A constant World is weighed by a twentieth of its irradiance, so
-    /// beside a lamp it gets the 5% floor of the light samples; one whose
-    /// light is uneven by the part above its mean (here half the sphere at
-    /// twice the mean), which light sampling is for. Beside a sun the
-    /// constant World is still picked, as the seed's rule (no MIS) needs.
+    /// With MIS, a constant World has no weight: beside a lamp or a sun
+    /// light samples leave it to BSDF samples. One whose light is uneven
+    /// is weighed by the part above its mean (here half the sphere at twice
+    /// the mean), which light sampling is for. Without MIS (the seed's
+    /// rule) only light samples see the World: it weighs its irradiance.
+    /// Either way `sample` picks as the probabilities say, and they sum
+    /// to 1.
     #[test]
     fn the_world_is_weighed_by_its_light_above_its_mean() {
         use crate::environment::EnvironmentMap;
         use crate::texture::{Image, Texels};
+        let pi = std::f32::consts::PI;
         let mut scene = lamp_under_a_world();
         let p = Vec3::new(0.3, 0.3, 1.0);
-        assert_eq!(Lights::new(&scene).world_probability(p), 0.05);
+        let lights = Lights::new(&scene);
+        let local = lights.local.irradiance(p);
+        assert_eq!(lights.world_probability(p, true), 0.0);
+        assert!((lights.world_probability(p, false) - (pi * 0.5 / (pi * 0.5 + local)).clamp(0.05, 0.95)).abs() < 1e-6);
         let (w, h) = (16u32, 64u32);
         let texels = (0..w * h).map(|i| if i / w < h / 2 { [1.0, 1.0, 1.0, 1.0] } else { [0.0; 4] }).collect();
         scene.environment = Some(EnvironmentMap::new(Image { name: "h".into(), width: w, height: h, texels: Texels::RgbaF32(texels) }, 1.0, 0.0));
         let lights = Lights::new(&scene);
-        // Weight π·0.25 against the lamp's estimate at p.
-        let (weight, local) = (std::f32::consts::PI * 0.25, lights.local.irradiance(p));
-        assert!((lights.world_probability(p) - weight / (weight + local)).abs() < 2e-3, "{} {}", lights.world_probability(p), weight / (weight + local));
+        // Weight π·0.25 against the lamp's estimate at p; without MIS π·0.5.
+        for (mis, weight) in [(true, pi * 0.25), (false, pi * 0.5)] {
+            let expected = weight / (weight + local);
+            assert!((lights.world_probability(p, mis) - expected).abs() < 2e-3, "{mis}: {} {expected}", lights.world_probability(p, mis));
+        }
         // A constant World beside a sun of irradiance 3.
         let mut sunny = Scene::new(vec![], vec![], scene.camera.clone());
         sunny.background = Vec3::splat(0.5);
         sunny.punctual.push(PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false });
         let lights = Lights::new(&sunny);
-        let world = 0.05 * std::f32::consts::PI * 0.5;
-        assert!((lights.world_probability(p) - world / (world + 3.0)).abs() < 1e-6);
-        let n = 100_000;
-        let picked = (0..n).filter(|&k| matches!(lights.sample(&sunny, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5)), Some(LightChoice::World { .. }))).count();
-        assert!((picked as f32 / n as f32 - lights.world_probability(p)).abs() < 1e-4, "{picked}");
-        assert!((lights.world_probability(p) + lights.punctual_probability(0, p) - 1.0).abs() < 1e-6);
+        for (mis, world) in [(true, 0.0), (false, pi * 0.5 / (pi * 0.5 + 3.0))] {
+            assert!((lights.world_probability(p, mis) - world).abs() < 1e-6, "{mis}");
+            let n = 100_000;
+            let picked = (0..n).filter(|&k| matches!(lights.sample(&sunny, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5), mis), Some(LightChoice::World { .. }))).count();
+            assert!((picked as f32 / n as f32 - world).abs() < 1e-4, "{mis}: {picked}");
+            assert!((lights.world_probability(p, mis) + lights.punctual_probability(0, p, mis) - 1.0).abs() < 1e-6);
+        }
     }
 
-    /// With a World, the World's share is larger far from the other lights
+    /// Without MIS, the World's share is larger far from the other lights
     /// than near them, stays in [0.05, 0.95], is what `sample` picks, and
-    /// the densities of all choices still sum to 1.
+    /// the densities of all choices still sum to 1 (with MIS as well,
+    /// where a constant World's share is 0). A World that is the only
+    /// light is always picked.
     #[test]
     fn the_worlds_share_follows_the_distance_to_the_other_lights() {
         let scene = lamp_under_a_world();
         let lights = Lights::new(&scene);
         let (near, far) = (Vec3::new(0.3, 0.3, 0.1), Vec3::new(0.0, 0.0, 30.0));
-        let (pn, pf) = (lights.world_probability(near), lights.world_probability(far));
+        let (pn, pf) = (lights.world_probability(near, false), lights.world_probability(far, false));
         assert!((0.05..=0.95).contains(&pn) && (0.05..=0.95).contains(&pf) && pn < pf, "{pn} {pf}");
         for p in [near, far] {
-            let n = 20_000;
-            let world = (0..n).filter(|&k| matches!(lights.sample(&scene, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5)), Some(LightChoice::World { .. }))).count();
-            assert!((world as f32 / n as f32 - lights.world_probability(p)).abs() < 1e-3);
-            // World share + ∫ pdf_A dA over the emitter = 1.
-            let total = lights.world_probability(p) + lights.pdf_area(scene.materials[0].emission, p) * 0.5;
-            assert!((total - 1.0).abs() < 1e-5, "{total}");
+            for mis in [false, true] {
+                let n = 20_000;
+                let world = (0..n).filter(|&k| matches!(lights.sample(&scene, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5), mis), Some(LightChoice::World { .. }))).count();
+                assert!((world as f32 / n as f32 - lights.world_probability(p, mis)).abs() < 1e-3);
+                // World share + ∫ pdf_A dA over the emitter = 1.
+                let total = lights.world_probability(p, mis) + lights.pdf_area(scene.materials[0].emission, p, mis) * 0.5;
+                assert!((total - 1.0).abs() < 1e-5, "{total}");
+            }
         }
         // Only a World: it is always picked.
         let mut sky = scene.clone();
         sky.materials[0].emission = Vec3::ZERO;
-        assert_eq!(Lights::new(&sky).world_probability(near), 1.0);
+        for mis in [false, true] {
+            assert_eq!(Lights::new(&sky).world_probability(near, mis), 1.0);
+        }
     }
 }
