@@ -10,10 +10,17 @@
 //! turns the lookup direction: b' = Rz(rotation)·b.
 //!
 //! Sampling: a uniform World by the cosine about the surface's geometric
-//! normal (for a Lambertian surface that estimate is exact); an image by
-//! texel luminance × sinθ (a 2-D table: rows, then columns in the row),
-//! with 1% of the mean weight added to every texel so that bilinear lookups
-//! between a bright texel and a black one are still reachable.
+//! normal (for a Lambertian surface that estimate is exact); an image by a
+//! 2-D table over its texels (rows, then columns in the row), each texel
+//! weighted by the most luminance a bilinear lookup inside it can return
+//! (`cell_bounds`) × sinθ. With MIS the weight is that bound's excess over
+//! the mean luminance, max(b − lum(L̄), 0)·sinθ (Karlík et al. 2019, MIS
+//! compensation): BSDF samples already find the even part of the light,
+//! so light samples go where the sky is brighter than that — the sun, not
+//! the whole sky — and a texel at or below the mean is left to BSDF
+//! samples alone. Without MIS only light samples see the World and the
+//! weight is the whole bound; that table is built when a render first
+//! asks for it.
 
 use crate::bsdf::luminance;
 use crate::sampling::{cosine_hemisphere, Distribution1D, Frame};
@@ -22,6 +29,7 @@ use glam::Vec2;
 use crate::Vec3;
 use std::f32::consts::PI;
 use std::path::Path;
+use std::sync::OnceLock;
 
 #[derive(Clone, Debug)]
 pub struct EnvironmentMap {
@@ -30,8 +38,12 @@ pub struct EnvironmentMap {
     pub strength: f32,
     /// Radians about Blender's Z (the Mapping node's rotation).
     pub rotation: f32,
-    rows: Distribution1D,
-    columns: Vec<Distribution1D>,
+    /// Light sampling with MIS: texels by their luminance above the mean;
+    /// None where no texel is above it (an even World).
+    above_mean: Option<Table>,
+    /// Light sampling without MIS, and of an even World that is the only
+    /// light: every texel by its luminance.
+    whole: OnceLock<Option<Table>>,
     /// Mean radiance over the sphere (for the light's power).
     pub mean: Vec3,
     /// Mean over the sphere of the luminance above lum(mean): the part of
@@ -40,6 +52,71 @@ pub struct EnvironmentMap {
 }
 
 const SAMPLER: Sampler = Sampler { wrap_s: Wrap::Repeat, wrap_t: Wrap::ClampToEdge, nearest: false };
+
+/// A texel's radiance before strength: finite and non-negative.
+fn texel_radiance(image: &Image, encoding: Encoding, x: u32, y: u32) -> Vec3 {
+    let c = Vec3::from_vec4(image.texel(x, y, encoding));
+    if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO }
+}
+
+/// Every texel's luminance, row by row.
+fn texel_luminances(image: &Image, encoding: Encoding) -> Vec<f32> {
+    (0..image.height).flat_map(|y| (0..image.width).map(move |x| luminance(texel_radiance(image, encoding, x, y)))).collect()
+}
+
+/// The most a bilinear lookup within each texel's cell can return: the
+/// largest luminance of the texel and its eight neighbours (wrapping
+/// across u, clamped at the poles, as `SAMPLER` reads). A table weighted
+/// by the texel's own value left the bilinear halo around a small sun —
+/// half the sun's radiance, in texels weighted as sky — to BSDF samples
+/// at full MIS weight: fireflies of a thousand times the sky's light.
+fn cell_bounds(luminances: &[f32], width: usize) -> Vec<f32> {
+    let height = luminances.len() / width;
+    let across: Vec<f32> = luminances
+        .chunks(width)
+        .flat_map(|row| (0..width).map(move |x| row[(x + width - 1) % width].max(row[x]).max(row[(x + 1) % width])))
+        .collect();
+    (0..height)
+        .flat_map(|y| {
+            let (up, down) = (y.saturating_sub(1), (y + 1).min(height - 1));
+            let across = &across;
+            (0..width).map(move |x| across[up * width + x].max(across[y * width + x]).max(across[down * width + x]))
+        })
+        .collect()
+}
+
+/// A sampling table over an image's texels: a row by its sum, then a
+/// column within the row.
+#[derive(Clone, Debug)]
+struct Table {
+    rows: Distribution1D,
+    columns: Vec<Distribution1D>,
+}
+
+impl Table {
+    /// Texels weighted by how far their luminance bound (`cell_bounds`)
+    /// rises above `level`, × sinθ (their solid angle); None where none
+    /// does.
+    fn above(bounds: &[f32], level: f32, width: usize) -> Option<Self> {
+        let sin_thetas = EnvironmentMap::sin_thetas((bounds.len() / width) as u32);
+        let columns: Vec<Distribution1D> = bounds.chunks(width).zip(&sin_thetas).map(|(row, &s)| Distribution1D::new(row.iter().map(|&b| ((b - level) * s).max(0.0) as f64))).collect();
+        let rows = Distribution1D::new(columns.iter().map(|c| c.total()));
+        (!rows.is_empty()).then_some(Table { rows, columns })
+    }
+
+    /// A texel (column, row) and where in it, each in [0, 1).
+    fn sample(&self, u: Vec2) -> (usize, usize, Vec2) {
+        let (row, v) = self.rows.sample_remapped(u.y);
+        let (column, uu) = self.columns[row].sample_remapped(u.x);
+        (column, row, Vec2::new(uu, v))
+    }
+
+    /// The probability of texel (x, y); 0 in a row of no weight.
+    fn probability(&self, x: usize, y: usize) -> f64 {
+        let row = self.rows.probability(y);
+        if row > 0.0 { row * self.columns[y].probability(x) } else { 0.0 }
+    }
+}
 
 impl EnvironmentMap {
     /// Read an HDR, EXR, PNG or JPEG file.
@@ -56,33 +133,42 @@ impl EnvironmentMap {
         // 8-bit images are sRGB colour, as Blender reads them; float ones linear.
         let encoding = if matches!(image.texels, Texels::Rgba8(_)) { Encoding::Srgb } else { Encoding::Linear };
         let (w, h) = (image.width, image.height);
-        let mut weights = vec![0.0f64; (w * h) as usize];
         let mut mean = Vec3::ZERO.as_dvec3();
-        let sin_thetas: Vec<f32> = (0..h).map(|y| (PI * (y as f32 + 0.5) / h as f32).sin()).collect();
+        let sin_thetas = Self::sin_thetas(h);
         for (y, &sin_theta) in (0..h).zip(&sin_thetas) {
             for x in 0..w {
-                let c = Vec3::from_vec4(image.texel(x, y, encoding));
-                let c = if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO };
-                weights[(y * w + x) as usize] = (luminance(c) * sin_theta) as f64;
-                mean += (c * sin_theta).as_dvec3();
+                mean += (texel_radiance(&image, encoding, x, y) * sin_theta).as_dvec3();
             }
         }
         // ∫ sinθ dθ dφ over the texels = 4π; each texel spans (π/h)(2π/w).
         let per_texel = 2.0 * std::f64::consts::PI * std::f64::consts::PI / (w as f64 * h as f64) / (4.0 * std::f64::consts::PI);
         let mean_luminance = luminance((mean * per_texel).as_vec3a());
-        // weights hold lum·sinθ.
-        let excess: f64 = weights
-            .chunks(w as usize)
-            .zip(&sin_thetas)
-            .map(|(row, &sin_theta)| row.iter().map(|&v| (v - (mean_luminance * sin_theta) as f64).max(0.0)).sum::<f64>())
-            .sum();
+        let luminances = texel_luminances(&image, encoding);
+        let excess: f64 = luminances.chunks(w as usize).zip(&sin_thetas).map(|(row, &s)| row.iter().map(|&l| ((l - mean_luminance) * s).max(0.0) as f64).sum::<f64>()).sum();
+        let above_mean = if excess > 0.0 { Table::above(&cell_bounds(&luminances, w as usize), mean_luminance, w as usize) } else { None };
         let excess = (excess * per_texel) as f32 * strength;
         let mean = (mean * per_texel).as_vec3a() * strength;
-        let floor = 0.01 * weights.iter().sum::<f64>() / weights.len() as f64;
-        let floor = if floor > 0.0 { floor } else { 1.0 };
-        let columns: Vec<Distribution1D> = weights.chunks(w as usize).map(|row| Distribution1D::new(row.iter().map(|v| v + floor))).collect();
-        let rows = Distribution1D::new(columns.iter().map(|c| c.total()));
-        EnvironmentMap { image, encoding, strength, rotation, rows, columns, mean, excess }
+        EnvironmentMap { image, encoding, strength, rotation, above_mean, whole: OnceLock::new(), mean, excess }
+    }
+
+    fn sin_thetas(height: u32) -> Vec<f32> {
+        (0..height).map(|y| (PI * (y as f32 + 0.5) / height as f32).sin()).collect()
+    }
+
+    /// The table light samples draw from: above the mean with MIS where
+    /// some texel is, else the whole one (built on first use; None for a
+    /// black image).
+    fn table(&self, mis: bool) -> Option<&Table> {
+        match (&self.above_mean, mis) {
+            (Some(table), true) => Some(table),
+            _ => self
+                .whole
+                .get_or_init(|| {
+                    let w = self.image.width as usize;
+                    Table::above(&cell_bounds(&texel_luminances(&self.image, self.encoding), w), 0.0, w)
+                })
+                .as_ref(),
+        }
     }
 
     fn blender_direction(&self, g: Vec3) -> Vec3 {
@@ -115,23 +201,23 @@ impl EnvironmentMap {
         if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO }
     }
 
-    /// A direction by the sampling table, and its solid-angle pdf.
-    pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
-        let (row, v) = self.rows.sample_remapped(u.y);
-        let (col, uu) = self.columns[row].sample_remapped(u.x);
-        let uv = Vec2::new((col as f32 + uu) / self.image.width as f32, (row as f32 + v) / self.image.height as f32);
+    /// A direction by the sampling table for `mis`, and its solid-angle
+    /// pdf.
+    pub fn sample(&self, u: Vec2, mis: bool) -> Option<(Vec3, f32)> {
+        let (column, row, within) = self.table(mis)?.sample(u);
+        let uv = Vec2::new((column as f32 + within.x) / self.image.width as f32, (row as f32 + within.y) / self.image.height as f32);
         let dir = self.direction(uv);
         // The pdf of the direction as `pdf` sees it (not of the texel drawn):
         // rounding can put a sample on its neighbour's side of a texel
         // edge, and MIS must weigh this sample with what an escaping ray in
         // the same direction is weighed with.
-        let pdf = self.pdf(dir);
+        let pdf = self.pdf(dir, mis);
         (pdf > 0.0 && dir.is_finite()).then_some((dir, pdf))
     }
 
     /// Solid-angle pdf of `sample` producing `dir`: the texel's share of
     /// the table over its solid angle, (2π/w)(π/h) sinθ.
-    pub fn pdf(&self, dir: Vec3) -> f32 {
+    pub fn pdf(&self, dir: Vec3, mis: bool) -> f32 {
         let uv = self.uv(dir);
         let (w, h) = (self.image.width, self.image.height);
         let x = ((uv.x.rem_euclid(1.0) * w as f32) as usize).min(w as usize - 1);
@@ -140,7 +226,7 @@ impl EnvironmentMap {
         if !(sin_theta > 0.0) {
             return 0.0;
         }
-        let share = (self.columns[y].probability(x) * self.rows.probability(y)) as f32;
+        let share = self.table(mis).map_or(0.0, |t| t.probability(x, y)) as f32;
         share * (w * h) as f32 / (2.0 * PI * PI * sin_theta)
     }
 }
@@ -183,30 +269,81 @@ mod tests {
         assert!((map(0.0).uv(Vec3::X).x - 0.5).abs() < 1e-6);
     }
 
+    /// Both tables: the pdf integrates to 1 over the sphere, samples land
+    /// on the bright texel as often as its share says, and every sample's
+    /// pdf is its direction's.
     #[test]
     fn the_pdf_integrates_to_one_and_sampling_follows_it() {
         let m = map(0.3);
         let mut rng = Rng::new(5, 6);
-        // E over uniform directions of pdf·4π = 1.
-        let n = 400_000;
-        let mut sum = 0.0f64;
-        for _ in 0..n {
-            let z = 1.0 - 2.0 * rng.next_f32();
+        for mis in [true, false] {
+            // E over uniform directions of pdf·4π = 1.
+            let n = 400_000;
+            let mut sum = 0.0f64;
+            for _ in 0..n {
+                let z = 1.0 - 2.0 * rng.next_f32();
+                let phi = 2.0 * PI * rng.next_f32();
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                sum += (m.pdf(Vec3::new(r * phi.cos(), z, r * phi.sin()), mis) * 4.0 * PI) as f64;
+            }
+            assert!((sum / n as f64 - 1.0).abs() < 0.02, "mis {mis}: {}", sum / n as f64);
+            let bright = Vec2::new(5.5 / 16.0, 2.5 / 8.0);
+            let hits = (0..100_000).filter_map(|_| m.sample(rng.next_2d(), mis)).filter(|(d, _)| ((m.uv(*d) - bright) * Vec2::new(16.0, 8.0)).abs().max_element() < 0.5).count();
+            let share = m.table(mis).unwrap().probability(5, 2);
+            assert!((hits as f64 / 1e5 - share).abs() < 0.01, "mis {mis}: {hits} vs {share}");
+            for _ in 0..1000 {
+                let (d, pdf) = m.sample(rng.next_2d(), mis).unwrap();
+                assert!((pdf - m.pdf(d, mis)).abs() <= 1e-3 * pdf, "mis {mis}: {pdf} vs {}", m.pdf(d, mis));
+            }
+        }
+    }
+
+    /// With MIS only texels whose bound is above the mean are
+    /// light-sampled: on a dim map with one bright texel, that texel and
+    /// the eight around it (its bilinear halo), where the whole table
+    /// (without MIS) gives them most of its weight and the rest the dim
+    /// texels'. An even map has no table above its mean; a World that is
+    /// the only light then draws from the whole table.
+    #[test]
+    fn with_mis_light_samples_go_where_the_world_is_above_its_mean() {
+        let m = map(0.0);
+        assert!(m.whole.get().is_none(), "the whole table is built only when asked for");
+        let block = |mis: bool| (1..=3).flat_map(|y| (4..=6).map(move |x| (x, y))).map(|(x, y)| m.table(mis).unwrap().probability(x, y)).sum::<f64>();
+        assert!((block(true) - 1.0).abs() < 1e-12, "{}", block(true));
+        assert!(block(false) > 0.9 && block(false) < 1.0, "{}", block(false));
+        let dim = Vec3::new(0.0, 1.0, 0.2).normalize();
+        assert_eq!(m.pdf(dim, true), 0.0);
+        assert!(m.pdf(dim, false) > 0.0);
+        let even = EnvironmentMap::new(Image { name: "u".into(), width: 8, height: 4, texels: Texels::RgbaF32(vec![[0.5; 4]; 32]) }, 1.0, 0.0);
+        assert!(even.above_mean.is_none());
+        assert!(even.sample(Vec2::splat(0.3), true).is_some_and(|(_, pdf)| pdf > 0.0));
+    }
+
+    /// A light sample's radiance over its pdf stays within a few times the
+    /// World's mean luminance × 4π in every direction, the bilinear halo
+    /// of a tiny bright sun included (away from the poles, where a row's
+    /// sinθ varies most): a table weighted by each texel's own value gave
+    /// the texels beside the sun half its radiance at a sky texel's
+    /// density, 10⁴ × as much.
+    #[test]
+    fn light_samples_of_a_small_sun_carry_bounded_weights() {
+        let (w, h) = (64u32, 32u32);
+        let mut texels = vec![[0.2f32, 0.3, 0.5, 1.0]; (w * h) as usize];
+        texels[(10 * w + 20) as usize] = [5e4, 5e4, 5e4, 1.0];
+        let m = EnvironmentMap::new(Image { name: "sun".into(), width: w, height: h, texels: Texels::RgbaF32(texels) }, 1.0, 0.0);
+        let bound = 4.0 * PI * luminance(m.mean) * 9.0;
+        let mut rng = Rng::new(7, 7);
+        let mut worst = 0.0f32;
+        for _ in 0..200_000 {
+            let z = 1.8 * rng.next_f32() - 0.9;
             let phi = 2.0 * PI * rng.next_f32();
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            sum += (m.pdf(Vec3::new(r * phi.cos(), z, r * phi.sin())) * 4.0 * PI) as f64;
+            let r = (1.0 - z * z).sqrt();
+            let dir = Vec3::new(r * phi.cos(), z, r * phi.sin());
+            let pdf = m.pdf(dir, false);
+            assert!(pdf > 0.0);
+            worst = worst.max(luminance(m.radiance(dir)) / pdf);
         }
-        assert!((sum / n as f64 - 1.0).abs() < 0.02, "{}", sum / n as f64);
-        // Samples land on the bright texel about as often as its share says.
-        let bright = Vec2::new(5.5 / 16.0, 2.5 / 8.0);
-        let hits = (0..100_000).filter_map(|_| m.sample(rng.next_2d())).filter(|(d, _)| ((m.uv(*d) - bright) * Vec2::new(16.0, 8.0)).abs().max_element() < 0.5).count();
-        let share = m.columns[2].probability(5) * m.rows.probability(2);
-        assert!((hits as f64 / 1e5 - share).abs() < 0.01, "{hits} vs {share}");
-        // Every sample's pdf is the pdf of its direction.
-        for _ in 0..1000 {
-            let (d, pdf) = m.sample(rng.next_2d()).unwrap();
-            assert!((pdf - m.pdf(d)).abs() <= 1e-3 * pdf, "{pdf} vs {}", m.pdf(d));
-        }
+        assert!(worst < 1.5 * bound, "{worst} against {bound}");
     }
 
     #[test]

@@ -505,18 +505,23 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
 /// Solid-angle pdf of light sampling (with MIS: only MIS asks) reaching
 /// the World along `dir` from a point `p` with geometric normal `ng`.
 fn world_pdf(ctx: &Context, p: Vec3, ng: Vec3, dir: Vec3) -> f32 {
-    let pdf = match &ctx.scene.environment {
-        Some(map) => map.pdf(dir),
-        None => environment::uniform_pdf(ng, dir),
-    };
-    ctx.lights.world_probability(p, true) * pdf
+    // A World light samples leave alone needs no table looked up.
+    let probability = ctx.lights.world_probability(p, true);
+    if probability == 0.0 {
+        return 0.0;
+    }
+    probability
+        * match &ctx.scene.environment {
+            Some(map) => map.pdf(dir, true),
+            None => environment::uniform_pdf(ng, dir),
+        }
 }
 
 /// One direction toward the World and its shadow ray.
 #[allow(clippy::too_many_arguments)]
 fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let (wi, pdf) = match &ctx.scene.environment {
-        Some(map) => match map.sample(u) {
+        Some(map) => match map.sample(u, mis) {
             Some(s) => s,
             None => return Vec3::ZERO,
         },
