@@ -61,7 +61,11 @@ fn texel_radiance(image: &Image, encoding: Encoding, x: u32, y: u32) -> Vec3 {
 
 /// Every texel's luminance, row by row.
 fn texel_luminances(image: &Image, encoding: Encoding) -> Vec<f32> {
-    (0..image.height).flat_map(|y| (0..image.width).map(move |x| luminance(texel_radiance(image, encoding, x, y)))).collect()
+    let mut out = Vec::with_capacity(image.width as usize * image.height as usize);
+    for y in 0..image.height {
+        out.extend((0..image.width).map(|x| luminance(texel_radiance(image, encoding, x, y))));
+    }
+    out
 }
 
 /// The most a bilinear lookup within each texel's cell can return: the
@@ -72,17 +76,22 @@ fn texel_luminances(image: &Image, encoding: Encoding) -> Vec<f32> {
 /// at full MIS weight: fireflies of a thousand times the sky's light.
 fn cell_bounds(luminances: &[f32], width: usize) -> Vec<f32> {
     let height = luminances.len() / width;
-    let across: Vec<f32> = luminances
-        .chunks(width)
-        .flat_map(|row| (0..width).map(move |x| row[(x + width - 1) % width].max(row[x]).max(row[(x + 1) % width])))
-        .collect();
-    (0..height)
-        .flat_map(|y| {
-            let (up, down) = (y.saturating_sub(1), (y + 1).min(height - 1));
-            let across = &across;
-            (0..width).map(move |x| across[up * width + x].max(across[y * width + x]).max(across[down * width + x]))
-        })
-        .collect()
+    let mut across = Vec::with_capacity(luminances.len());
+    for row in luminances.chunks(width) {
+        for x in 0..width {
+            let left = if x == 0 { row[width - 1] } else { row[x - 1] };
+            let right = if x + 1 == width { row[0] } else { row[x + 1] };
+            across.push(left.max(row[x]).max(right));
+        }
+    }
+    let mut bounds = Vec::with_capacity(luminances.len());
+    for y in 0..height {
+        let (up, down) = (y.saturating_sub(1) * width, (y + 1).min(height - 1) * width);
+        for x in 0..width {
+            bounds.push(across[up + x].max(across[y * width + x]).max(across[down + x]));
+        }
+    }
+    bounds
 }
 
 /// A sampling table over an image's texels: a row by its sum, then a
@@ -133,17 +142,21 @@ impl EnvironmentMap {
         // 8-bit images are sRGB colour, as Blender reads them; float ones linear.
         let encoding = if matches!(image.texels, Texels::Rgba8(_)) { Encoding::Srgb } else { Encoding::Linear };
         let (w, h) = (image.width, image.height);
+        // One pass over the texels (decoding them was most of the time a
+        // 4k map took to load): the mean, and each texel's luminance.
         let mut mean = Vec3::ZERO.as_dvec3();
+        let mut luminances = Vec::with_capacity((w * h) as usize);
         let sin_thetas = Self::sin_thetas(h);
         for (y, &sin_theta) in (0..h).zip(&sin_thetas) {
             for x in 0..w {
-                mean += (texel_radiance(&image, encoding, x, y) * sin_theta).as_dvec3();
+                let c = texel_radiance(&image, encoding, x, y);
+                mean += (c * sin_theta).as_dvec3();
+                luminances.push(luminance(c));
             }
         }
         // ∫ sinθ dθ dφ over the texels = 4π; each texel spans (π/h)(2π/w).
         let per_texel = 2.0 * std::f64::consts::PI * std::f64::consts::PI / (w as f64 * h as f64) / (4.0 * std::f64::consts::PI);
         let mean_luminance = luminance((mean * per_texel).as_vec3a());
-        let luminances = texel_luminances(&image, encoding);
         let excess: f64 = luminances.chunks(w as usize).zip(&sin_thetas).map(|(row, &s)| row.iter().map(|&l| ((l - mean_luminance) * s).max(0.0) as f64).sum::<f64>()).sum();
         let above_mean = if excess > 0.0 { Table::above(&cell_bounds(&luminances, w as usize), mean_luminance, w as usize) } else { None };
         let excess = (excess * per_texel) as f32 * strength;

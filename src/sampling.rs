@@ -102,7 +102,8 @@ pub struct Distribution1D {
 impl Distribution1D {
     /// Weights must be finite and non-negative; the caller filters others out.
     pub fn new(weights: impl IntoIterator<Item = f64>) -> Self {
-        let mut cdf = Vec::new();
+        let weights = weights.into_iter();
+        let mut cdf = Vec::with_capacity(weights.size_hint().0);
         let mut total = 0.0;
         for w in weights {
             debug_assert!(w.is_finite() && w >= 0.0);
