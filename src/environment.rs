@@ -38,11 +38,11 @@ pub struct EnvironmentMap {
     pub strength: f32,
     /// Radians about Blender's Z (the Mapping node's rotation).
     pub rotation: f32,
-    /// Light sampling with MIS: texels by their luminance above the mean;
-    /// None where no texel is above it (an even World).
+    /// Light sampling with MIS: texels by their luminance bound above the
+    /// mean; None where no texel is above it (an even World).
     above_mean: Option<Table>,
     /// Light sampling without MIS, and of an even World that is the only
-    /// light: every texel by its luminance.
+    /// light: every texel by its luminance bound.
     whole: OnceLock<Option<Table>>,
     /// Mean radiance over the sphere (for the light's power).
     pub mean: Vec3,
