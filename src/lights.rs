@@ -41,6 +41,7 @@ use crate::sampling::{cosine_hemisphere, uniform_triangle, Distribution1D, Frame
 use crate::shading::{self, Barycentric};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
+use crate::light_tree::{Cone, LightTree, TreeLight};
 use crate::spherical_triangle::{self, SphericalTriangle};
 use glam::Vec2;
 use crate::Vec3;
@@ -68,6 +69,81 @@ pub struct Lights {
     suns: Vec<(usize, f32)>,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
+    /// The local lights in a light tree where there are two or more;
+    /// else `distribution` picks by power.
+    tree: Option<LocalTree>,
+}
+
+/// The local lights as a light tree picks them (light_tree.rs).
+struct LocalTree {
+    tree: LightTree,
+    /// What each of the tree's lights is.
+    items: Vec<TreeItem>,
+    /// The tree light of each emitter, alongside `triangles`.
+    of_emitter: Vec<u32>,
+    /// The tree light of each scene punctual light; NOT_IN_TREE for a sun
+    /// or one that gives no light.
+    of_punctual: Vec<u32>,
+}
+
+const NOT_IN_TREE: u32 = u32::MAX;
+
+/// One light of the tree: an emitting triangle, or the two halves of a
+/// quad (emitters `first` and `first + 1`), sampled as one, as without
+/// the tree, so both halves keep one area density; or a point or spot.
+#[derive(Clone, Copy)]
+enum TreeItem {
+    Emitters { first: usize, count: usize, area: f32 },
+    Punctual(usize),
+}
+
+impl LocalTree {
+    /// None with fewer than two local lights: one needs no picking.
+    fn new(scene: &Scene, triangles: &[u32], records: &[Emitter], powers: &[f64]) -> Option<Self> {
+        let (mut items, mut lights) = (Vec::new(), Vec::new());
+        let mut of_emitter = vec![NOT_IN_TREE; triangles.len()];
+        let mut k = 0;
+        while k < triangles.len() {
+            let count = match records[k].quad {
+                Some((_, partner)) if partner == k + 1 => 2,
+                _ => 1,
+            };
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for &t in &triangles[k..k + count] {
+                scene.triangles[t as usize].p().iter().for_each(|&v| (lo, hi) = (lo.min(v), hi.max(v)));
+            }
+            of_emitter[k..k + count].fill(items.len() as u32);
+            let weight = powers[k..k + count].iter().sum::<f64>() as f32;
+            lights.push(TreeLight { weight, lo, hi, facing: Some((records[k].normal, double_sided(scene, triangles[k]))) });
+            items.push(TreeItem::Emitters { first: k, count, area: records[k..k + count].iter().map(|e| e.area).sum() });
+            k += count;
+        }
+        let mut of_punctual = vec![NOT_IN_TREE; scene.punctual.len()];
+        for (index, (light, &power)) in scene.punctual.iter().zip(&powers[triangles.len()..]).enumerate() {
+            // Suns have power 0 here: they are the distant group's.
+            if power > 0.0 {
+                of_punctual[index] = items.len() as u32;
+                // π·I bounds its irradiance as π·A·Le does an emitter's.
+                let weight = std::f32::consts::PI * luminance(light.intensity);
+                lights.push(TreeLight { weight, lo: light.position - Vec3::splat(light.size), hi: light.position + Vec3::splat(light.size), facing: None });
+                items.push(TreeItem::Punctual(index));
+            }
+        }
+        if items.len() < 2 {
+            return None;
+        }
+        Some(LocalTree { tree: LightTree::new(&lights)?, items, of_emitter, of_punctual })
+    }
+
+    /// The density per unit area of the tree picking emitter `k` and a
+    /// point on it by area, for a point at `p`.
+    fn area_density(&self, k: usize, p: Vec3) -> f32 {
+        let item = self.of_emitter[k] as usize;
+        match self.items[item] {
+            TreeItem::Emitters { area, .. } if area > 0.0 => self.tree.probability(item, p) / area,
+            _ => 0.0,
+        }
+    }
 }
 
 /// The World's weight among the lights, and the distant group's (the
@@ -121,29 +197,9 @@ fn double_sided(scene: &Scene, t: u32) -> bool {
 }
 
 /// The cone of emitting triangles' normals (their `records`), `powers`
-/// their weights, where all are one-sided, or all two-sided (a panel lit
-/// both ways: each normal taken on the first one's side), and the cone is
-/// narrower than a hemisphere; else None.
+/// their weights (Cone::around).
 fn emitter_cone(scene: &Scene, triangles: &[u32], records: &[Emitter], powers: &[f64]) -> Option<Cone> {
-    let (&first, first_record) = (triangles.first()?, records.first()?);
-    let both_ways = double_sided(scene, first);
-    if triangles.iter().any(|&t| double_sided(scene, t) != both_ways) || records.iter().any(|e| !e.normal.is_finite()) {
-        return None;
-    }
-    let side = |n: Vec3| if both_ways && n.dot(first_record.normal) < 0.0 { -n } else { n };
-    let axis = records.iter().zip(powers).fold(Vec3::ZERO, |a, (e, &w)| a + side(e.normal) * w as f32).normalize_or_zero();
-    let cos_o = records.iter().map(|e| side(e.normal).dot(axis)).fold(1.0f32, f32::min);
-    (axis != Vec3::ZERO && cos_o > 0.0).then(|| Cone { axis, cos_o, sin_o: (1.0 - cos_o * cos_o).max(0.0).sqrt(), both_ways })
-}
-
-/// Which way some emitters shine: within `cos_o` of `axis`, and of −axis
-/// too where they are two-sided.
-#[derive(Clone, Copy, Debug)]
-struct Cone {
-    axis: Vec3,
-    cos_o: f32,
-    sin_o: f32,
-    both_ways: bool,
+    Cone::around(triangles.iter().zip(records).zip(powers).map(|((&t, e), &w)| (e.normal, double_sided(scene, t), w as f32)))
 }
 
 /// The emitters' records: consecutive emitting triangles of one material
@@ -215,21 +271,8 @@ impl Bound {
         let v = p - self.centre;
         let dist2 = v.length_squared();
         let d2 = dist2.max(self.radius2).max(1e-12);
-        let Some(Cone { axis, cos_o, sin_o, both_ways }) = self.cone else { return self.power / (4.0 * std::f32::consts::PI * d2) };
-        // The bound of the cosine over the cone of normals and the lights'
-        // sphere as seen from p: cos(max(θ − θo − θu, 0)) (Conty Estevez
-        // and Kulla 2018), θu the sphere's angular radius.
-        let factor = if dist2 <= self.radius2 {
-            1.0
-        } else {
-            let cos_t = axis.dot(v) / dist2.sqrt();
-            let cos_t = if both_ways { cos_t.abs() } else { cos_t };
-            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-            let sin_u2 = self.radius2 / dist2;
-            let (sin_u, cos_u) = (sin_u2.sqrt(), (1.0 - sin_u2).max(0.0).sqrt());
-            let (cos_phi, sin_phi) = (cos_o * cos_u - sin_o * sin_u, sin_o * cos_u + cos_o * sin_u);
-            if cos_t >= cos_phi { 1.0 } else { (cos_t * cos_phi + sin_t * sin_phi).max(0.0) }
-        };
+        let Some(cone) = &self.cone else { return self.power / (4.0 * std::f32::consts::PI * d2) };
+        let factor = cone.cos_bound(v, dist2, self.radius2);
         self.power * factor / (std::f32::consts::PI * d2)
     }
 }
@@ -338,6 +381,7 @@ impl Lights {
         let world_excess = if world_irradiance > 0.0 { std::f32::consts::PI * scene.world_excess() } else { 0.0 };
         let sunlight = suns.iter().map(|&(_, e)| e).sum::<f32>();
         let weights = |world: f32| DistantWeights { world, total: world + sunlight };
+        let tree = LocalTree::new(scene, &triangles, &records, &powers);
         let distribution = Distribution1D::new(powers);
         let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
         Lights {
@@ -352,7 +396,19 @@ impl Lights {
             local,
             suns,
             sized,
+            tree,
         }
+    }
+
+    /// Pick local lights by power alone, as with one light, leaving the
+    /// light tree out (to measure what it gives).
+    pub fn pick_by_power(&mut self) {
+        self.tree = None;
+    }
+
+    /// How many lights the light tree holds; 0 without one.
+    pub fn tree_size(&self) -> usize {
+        self.tree.as_ref().map_or(0, |t| t.tree.len())
     }
 
     pub fn is_empty(&self) -> bool {
@@ -408,13 +464,19 @@ impl Lights {
         self.distant_probability(p, mis) * self.world_in_group(mis)
     }
 
-    /// Area density of every point on an emitter of radiance `le`, for a
-    /// point at `p`.
-    pub fn pdf_area(&self, le: Vec3, p: Vec3, mis: bool) -> f32 {
-        (1.0 - self.distant_probability(p, mis)) * self.local_pdf_area(le)
+    /// Area density of the points of emitting scene triangle `triangle`,
+    /// for a point at `p`.
+    pub fn pdf_area(&self, scene: &Scene, triangle: u32, p: Vec3, mis: bool) -> f32 {
+        let local = match &self.tree {
+            // The emitters are in scene order.
+            Some(tree) => self.triangles.binary_search(&triangle).map_or(0.0, |k| tree.area_density(k, p)),
+            None => self.local_pdf_area(scene.materials[scene.triangles[triangle as usize].material as usize].emission),
+        };
+        (1.0 - self.distant_probability(p, mis)) * local
     }
 
-    /// The same, once a local light is to be picked.
+    /// The area density of a point on an emitter of radiance `le` once a
+    /// local light is to be picked by power.
     fn local_pdf_area(&self, le: Vec3) -> f32 {
         luminance(le) * self.area_pdf_per_luminance
     }
@@ -425,7 +487,14 @@ impl Lights {
         if let Some(&(_, irradiance)) = self.suns.iter().find(|&&(i, _)| i == index) {
             return self.distant_probability(p, mis) * (irradiance / self.distant_weights(mis).total);
         }
-        (1.0 - self.distant_probability(p, mis)) * self.distribution.probability(self.triangles.len() + index) as f32
+        let local = match &self.tree {
+            Some(tree) => match tree.of_punctual[index] {
+                NOT_IN_TREE => 0.0,
+                item => tree.tree.probability(item as usize, p),
+            },
+            None => self.distribution.probability(self.triangles.len() + index) as f32,
+        };
+        (1.0 - self.distant_probability(p, mis)) * local
     }
 
     /// A light for a point at `p`, picked with the weights `mis` asks for.
@@ -455,16 +524,41 @@ impl Lights {
             });
         }
         let local = 1.0 - distant;
-        let pick = self.distribution.sample(((u_pick - distant) / local).min(1.0 - f32::EPSILON));
-        if pick >= self.triangles.len() {
-            let probability = local * self.distribution.probability(pick) as f32;
-            return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });
-        }
+        let u_local = ((u_pick - distant) / local).min(1.0 - f32::EPSILON);
+        // The emitter, and its area density once local lights are picked
+        // (None: by power, the same for every emitter of one radiance).
+        let (pick, density) = match &self.tree {
+            Some(tree) => {
+                let (item, probability, rest) = tree.tree.sample(p, u_local);
+                match tree.items[item] {
+                    TreeItem::Punctual(index) => {
+                        let probability = local * probability;
+                        return (probability > 0.0).then_some(LightChoice::Punctual { index, probability });
+                    }
+                    // A quad's half by area.
+                    TreeItem::Emitters { first, count, area } => {
+                        let k = if count == 2 && rest * area >= self.emitters[first].area { first + 1 } else { first };
+                        (k, Some(probability / area))
+                    }
+                }
+            }
+            None => {
+                let pick = self.distribution.sample(u_local);
+                if pick >= self.triangles.len() {
+                    let probability = local * self.distribution.probability(pick) as f32;
+                    return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });
+                }
+                (pick, None)
+            }
+        };
         let mut triangle = self.triangles[pick];
         let emitter = &self.emitters[pick];
         let mut tri = &scene.triangles[triangle as usize];
         let mut normal = emitter.normal;
-        let pdf_area = local * self.local_pdf_area(scene.materials[tri.material as usize].emission);
+        let pdf_area = local * density.unwrap_or_else(|| self.local_pdf_area(scene.materials[tri.material as usize].emission));
+        if !(pdf_area > 0.0) {
+            return None;
+        }
         let view = close_solid_angle(p, tri, &emitter.nearness).and_then(|omega| SphericalTriangle::new(p, &tri.p(), omega));
         let b = match (&view, &emitter.quad) {
             (Some(view), _) => barycentrics_along(p, view.sample(u), tri),
@@ -530,7 +624,7 @@ impl Lights {
     /// where the ray meets it with cosine `cos_light`.
     pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, dist2: f32, cos_light: f32, mis: bool) -> f32 {
         let tri = &scene.triangles[triangle as usize];
-        let pdf_area = self.pdf_area(scene.materials[tri.material as usize].emission, p, mis);
+        let pdf_area = self.pdf_area(scene, triangle, p, mis);
         match close_solid_angle(p, tri, &Nearness::of(tri)) {
             Some(omega) => pdf_area * tri.area() / omega,
             None => solid_angle_density(pdf_area, dist2, cos_light),
@@ -604,24 +698,40 @@ mod tests {
     use crate::scene::Triangle;
     use crate::punctual::{PunctualKind, PunctualLight};
 
+    /// Without the light tree, emitters are picked by power; with it, by
+    /// its probabilities. Either way the density integrates to 1 over the
+    /// emitters and `sample` picks as `pdf_area` says.
     #[test]
-    fn emitters_are_picked_by_power_and_the_density_integrates_to_one() {
+    fn emitters_are_picked_as_their_density_says_and_it_integrates_to_one() {
         let tri = |x: f32, material: u32| Triangle::new([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)], [Vec3::Z; 3], material);
         let m = |le: f32| Material { emission: Vec3::splat(le), ..Material::default() };
         let camera = Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
         let scene = Scene::new(vec![tri(0.0, 0), tri(2.0, 1), tri(4.0, 2)], vec![m(1.0), m(3.0), m(0.0)], camera);
-        let lights = Lights::new(&scene);
-        assert_eq!(lights.triangles, vec![0, 1]);
-        // ∫ pdf_A dA over the emitters = Σ pdf_A(Le_i) A_i = 1.
-        let total: f32 = [0, 1].iter().map(|&i| lights.pdf_area(scene.materials[i].emission, Vec3::ZERO, true) * 0.5).sum();
-        // (pdf_A includes the π of π·A·Le; the density over area sums to 1.)
-        assert!((total - 1.0).abs() < 1e-6);
-        let mut counts = [0u32; 2];
-        for k in 0..4000 {
-            let Some(LightChoice::Area(s)) = lights.sample(&scene, Vec3::ZERO, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3), true) else { panic!("no light") };
-            counts[s.triangle as usize] += 1;
+        let mut by_power = Lights::new(&scene);
+        assert_eq!(by_power.triangles, vec![0, 1]);
+        assert_eq!(by_power.tree_size(), 2);
+        by_power.pick_by_power();
+        let picks = |lights: &Lights, p: Vec3| {
+            let mut counts = [0u32; 2];
+            for k in 0..4000 {
+                let Some(LightChoice::Area(s)) = lights.sample(&scene, p, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3), true) else { panic!("no light") };
+                counts[s.triangle as usize] += 1;
+            }
+            counts
+        };
+        assert_eq!(picks(&by_power, Vec3::ZERO), [1000, 3000]);
+        let tree = Lights::new(&scene);
+        for p in [Vec3::ZERO, Vec3::new(0.3, 0.3, 1.0), Vec3::new(2.5, 0.2, 0.5), Vec3::new(1.5, 0.5, -3.0)] {
+            for lights in [&by_power, &tree] {
+                // ∫ pdf_A dA over the emitters = Σ pdf_A,i A_i = 1.
+                let pdf = [0, 1].map(|t| lights.pdf_area(&scene, t, p, true) * 0.5);
+                assert!((pdf[0] + pdf[1] - 1.0).abs() < 1e-6, "{p}: {pdf:?}");
+                let counts = picks(lights, p);
+                assert!((counts[0] as f32 - 4000.0 * pdf[0]).abs() <= 2.0, "{p}: {counts:?} {pdf:?}");
+            }
         }
-        assert_eq!(counts, [1000, 3000]);
+        // Above the brighter triangle its share is higher than by power.
+        assert!(tree.pdf_area(&scene, 1, Vec3::new(2.3, 0.3, 0.5), true) * 0.5 > 0.9);
     }
 
     /// A one-sided emitter's light is estimated as a Lambertian emitter
@@ -751,7 +861,7 @@ mod tests {
                 let world = (0..n).filter(|&k| matches!(lights.sample(&scene, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5), mis), Some(LightChoice::World { .. }))).count();
                 assert!((world as f32 / n as f32 - lights.world_probability(p, mis)).abs() < 1e-3);
                 // World share + ∫ pdf_A dA over the emitter = 1.
-                let total = lights.world_probability(p, mis) + lights.pdf_area(scene.materials[0].emission, p, mis) * 0.5;
+                let total = lights.world_probability(p, mis) + lights.pdf_area(&scene, 0, p, mis) * 0.5;
                 assert!((total - 1.0).abs() < 1e-5, "{total}");
             }
         }

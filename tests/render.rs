@@ -7,7 +7,7 @@ use common::{closed_box, mean_and_standard_error, region_mean, render, settings}
 use glint::Vec3;
 use glint::integrator::Context;
 use glint::loader::{load_bytes, LoadOptions};
-use glint::render::{render_pass, Film, RenderSettings};
+use glint::render::{render_pass, Film, PassStats, RenderSettings};
 use glint::scene::Scene;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -477,9 +477,15 @@ fn light_paths_keep_the_image_and_lower_the_noise_of_a_lamp_under_a_ceiling() {
 /// and returns the variance per pixel with and without it.
 fn same_image_less_noise(scene: &Scene, with: &RenderSettings, without: &RenderSettings, what: &str) -> (f64, f64) {
     let run = |settings: &RenderSettings, seed: u64| render(scene, &RenderSettings { seed, ..settings.clone() }, 2);
-    let ((on1, s_on), (on2, _), (off1, s_off), (off2, _)) = (run(with, 1), run(with, 2), run(without, 3), run(without, 4));
+    same_image_less_noise_of(|seed| run(with, seed), |seed| run(without, seed), what, |on, off| assert!(on.rays.shadow > off.rays.shadow, "{what}: the strategy traces shadow rays"))
+}
+
+/// `same_image_less_noise` of two ways to render an image (`with(seed)`
+/// and `without(seed)`), `check` given their first renders' statistics.
+fn same_image_less_noise_of(with: impl Fn(u64) -> (Vec<Vec3>, PassStats), without: impl Fn(u64) -> (Vec<Vec3>, PassStats), what: &str, check: impl FnOnce(&PassStats, &PassStats)) -> (f64, f64) {
+    let ((on1, s_on), (on2, _), (off1, s_off), (off2, _)) = (with(1), with(2), without(3), without(4));
     common::assert_clean(&on1, &s_on, what);
-    assert!(s_on.rays.shadow > s_off.rays.shadow, "{what}: the strategy traces shadow rays");
+    check(&s_on, &s_off);
     // Unbiased: per pixel, (on − off) has mean 0; pixels are independent.
     let lum = |p: &Vec3| p.dot(Vec3::ONE) / 3.0;
     let diffs: Vec<f32> = on1.iter().zip(&off1).chain(on2.iter().zip(&off2)).map(|(a, b)| lum(a) - lum(b)).collect();
@@ -492,6 +498,27 @@ fn same_image_less_noise(scene: &Scene, with: &RenderSettings, without: &RenderS
     let (v_on, v_off) = (noise(&on1, &on2), noise(&off1, &off2));
     println!("{what}: diff {mean_diff} se {se}; variance per pixel: with {v_on:.5}, without {v_off:.5}");
     (v_on, v_off)
+}
+
+/// The light tree picks the lamps near a point: in a hall of 32 ceiling
+/// lamps and 8 bulbs it must leave the image's expectation where picking
+/// by power puts it, and make it less noisy (direct light and one bounce,
+/// where the pick matters most).
+#[test]
+fn the_light_tree_keeps_the_image_and_lowers_the_noise_of_a_lamp_hall() {
+    let scene = common::lamp_hall();
+    let settings = RenderSettings { mis: true, ..common::settings(32, 32, 64, 2, 0) };
+    let run = |seed: u64, by_power: bool| {
+        let (img, stats, _) = common::render_prepared(&scene, &RenderSettings { seed, ..settings.clone() }, 2, |ctx| {
+            assert_eq!(ctx.lights.tree_size(), 16 * 2 + 8, "a quad lamp is one light of the tree");
+            if by_power {
+                ctx.lights.pick_by_power();
+            }
+        });
+        (img, stats)
+    };
+    let (v_tree, v_power) = same_image_less_noise_of(|seed| run(seed, false), |seed| run(seed, true), "light tree", |_, _| {});
+    assert!(v_tree < 0.5 * v_power, "light tree {v_tree} vs by power {v_power}");
 }
 
 /// A lamp under the ceiling of a closed box and a glossy metal plate on

@@ -15,7 +15,14 @@ use std::time::{Duration, Instant};
 /// Render all of `settings.spp` in one pass on `threads` threads; the image
 /// is the per-pixel mean. The duration is of rendering only (no BVH build).
 pub fn render_timed(scene: &Scene, settings: &RenderSettings, threads: usize) -> (Vec<Vec3>, PassStats, Duration) {
-    let (ctx, _) = Context::new(scene);
+    render_prepared(scene, settings, threads, |_| {})
+}
+
+/// `render_timed`, with `prepare` changing the render's context first
+/// (picking lights by power alone, say).
+pub fn render_prepared(scene: &Scene, settings: &RenderSettings, threads: usize, prepare: impl FnOnce(&mut Context)) -> (Vec<Vec3>, PassStats, Duration) {
+    let (mut ctx, _) = Context::new(scene);
+    prepare(&mut ctx);
     let mut film = Film::new(settings.width, settings.height);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     let start = Instant::now();
@@ -153,4 +160,43 @@ pub fn closed_box(albedo: f32, emission: f32) -> Scene {
     };
     let camera = Camera::from_world("inside".into(), &Mat4::from_translation(glam::Vec3::new(0.1, -0.2, 0.3)), 1.2, None).unwrap();
     Scene::new(triangles, vec![material], camera)
+}
+
+/// A hall 8 m wide, 3 m high and 42 m long down −Z, lit by 32 square
+/// ceiling lamps of 0.4 m (two rows, 2.5 m apart, radiance 20–60 in
+/// turn) and 8 small point lights along the walls: a scene of many lights
+/// where only the near ones matter to a point. The camera stands at one
+/// end and looks down the hall.
+pub fn lamp_hall() -> Scene {
+    use glint::punctual::{PunctualKind, PunctualLight};
+    let mut materials = vec![diffuse("floor", 0.6), diffuse("walls", 0.8)];
+    let (x0, x1, z0, z1, h) = (-4.0f32, 4.0f32, -40.0f32, 2.0f32, 3.0f32);
+    let c = Vec3::new;
+    let mut triangles = Vec::new();
+    let mut quad = |p: [Vec3; 4], material: u32| {
+        triangles.push(triangle([p[0], p[1], p[2]], material));
+        triangles.push(triangle([p[0], p[2], p[3]], material));
+    };
+    // Counter-clockwise seen from inside the hall.
+    quad([c(x0, 0.0, z1), c(x1, 0.0, z1), c(x1, 0.0, z0), c(x0, 0.0, z0)], 0); // floor, +Y
+    quad([c(x0, h, z0), c(x1, h, z0), c(x1, h, z1), c(x0, h, z1)], 1); // ceiling, −Y
+    quad([c(x0, 0.0, z0), c(x0, h, z0), c(x0, h, z1), c(x0, 0.0, z1)], 1); // left, +X
+    quad([c(x1, 0.0, z1), c(x1, h, z1), c(x1, h, z0), c(x1, 0.0, z0)], 1); // right, −X
+    quad([c(x0, 0.0, z0), c(x1, 0.0, z0), c(x1, h, z0), c(x0, h, z0)], 1); // far end, +Z
+    for k in 0..3 {
+        materials.push(emitter(Vec3::new(1.0, 0.9, 0.8) * (20.0 + 20.0 * k as f32)));
+    }
+    for i in 0..16 {
+        for (j, x) in [-2.0f32, 2.0].into_iter().enumerate() {
+            let (z, material) = (-1.0 - 2.5 * i as f32, 2 + ((i + j) % 3) as u32);
+            triangles.extend(horizontal_quad(c(x, 0.0, z), 0.2, h - 0.05, false, material));
+        }
+    }
+    let camera = look_at(c(0.0, 1.6, 1.5), c(0.0, 1.2, -40.0), 60f32.to_radians());
+    let mut scene = Scene::new(triangles, materials, camera);
+    for i in 0..8 {
+        let x = if i % 2 == 0 { x0 + 0.3 } else { x1 - 0.3 };
+        scene.punctual.push(PunctualLight { name: format!("bulb {i}"), kind: PunctualKind::Point, position: c(x, 1.0, -3.0 - 5.0 * i as f32), direction: -Vec3::Y, intensity: Vec3::new(1.0, 0.6, 0.3) * 5.0, size: 0.0, sphere: false, camera_sees: false });
+    }
+    scene
 }
