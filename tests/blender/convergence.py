@@ -4,7 +4,8 @@ on one machine.
     GLINT_EXECUTABLE=target/release/glint  VENV/bin/python tests/blender/convergence.py [--out convergence] [--size 64] [--mitsuba]
 
 For each comparison scene (the Cornell box, imported from scenes/ with
-Blender's glTF importer, and a rough gold sphere under an area light), it:
+Blender's glTF importer, a rough gold sphere under an area light, and a
+hall of 32 area lights), it:
 
 1. renders a converged reference with each renderer (--reference-spp
    samples): each renderer's noise is measured against its own converged
@@ -82,7 +83,38 @@ def gold_sphere(scene):
     add_camera(scene, (0, -5, 1.0), (math.radians(85), 0, 0))
 
 
-SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere}
+def lamp_hall(scene):
+    """Many lights, few of which matter to a point: a hall 8 m wide, 42 m
+    long and 3 m high (one Lambertian grey inside a box), lit by 32 square
+    area lights of 0.4 m under its ceiling, two rows 2.5 m apart, of 10, 20
+    and 30 W in turn; the camera at one end looks down it."""
+    import bmesh
+
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0, 19, 1.5), scale=(8, 42, 3))
+    hall = bpy.context.object
+    mesh = bmesh.new()
+    mesh.from_mesh(hall.data)
+    bmesh.ops.reverse_faces(mesh, faces=mesh.faces)  # facing in
+    mesh.to_mesh(hall.data)
+    mesh.free()
+    # Lambertian (Specular IOR Level 0): Mitsuba's `diffuse`, as Cycles and
+    # Glint shade it. Inside a closed box of albedo ρ the light is 1/(1 − ρ)
+    # times the direct light, so any difference in ρ is tripled; Mitsuba's
+    # Disney `principled` came out 70% brighter than Cycles here.
+    give_principled(hall, "Hall", Base_Color=(0.7, 0.7, 0.7, 1), Roughness=0.8, Specular_IOR_Level=0.0)
+    for i in range(16):
+        for j, x in enumerate((-2.0, 2.0)):
+            light = bpy.data.lights.new(f"Lamp {i} {j}", "AREA")
+            light.size, light.energy = 0.4, 10.0 * (1 + (i + j) % 3)
+            light.color = (1.0, 0.9, 0.8)
+            lamp = bpy.data.objects.new(light.name, light)
+            lamp.location = (x, 1.0 + 2.5 * i, 2.95)  # facing down, as area lights do
+            scene.collection.objects.link(lamp)
+    scene.world = None
+    add_camera(scene, (0, -1.5, 1.6), (math.radians(89.5), 0, 0), lens=31.2)  # 60° field of view
+
+
+SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall}
 
 
 def setup(build, size):

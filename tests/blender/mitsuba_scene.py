@@ -16,6 +16,10 @@ What carries over, and how it differs from Cycles' reading:
   faces (as Cycles' emission), Blender area lights of square/rectangle shape → a
   `rectangle` emitter of radiance colour·power/(π·A), a plain World colour
   → `constant`.
+- lights hidden from the camera (Blender's default): the path integrator's
+  `hide_emitters`, which hides every emitter, so only where area lights
+  are the only emitters (the lamp hall; 2.2× too bright without, its
+  lamps in view);
 - `path` integrator, Cycles' Max Bounces B as max_depth B + 2 (Mitsuba
   counts the emitter seen as a depth), Russian roulette from depth 5
   (Mitsuba's default).
@@ -181,4 +185,12 @@ def scene_dict(scene, bounces):
             colour = np.array(bg.inputs["Color"].default_value[:3]) * bg.inputs["Strength"].default_value
             if colour.max() > 0:
                 d["world"] = {"type": "constant", "radiance": {"type": "rgb", "value": colour.tolist()}}
+    # Blender's lights are hidden from the camera by default (Object ›
+    # Visibility › Camera), Mitsuba's emitters are not; its path integrator
+    # can hide them only all at once, so it does where the only emitters
+    # are such lights.
+    lamps = [i.object for i in depsgraph.object_instances if i.object.type == "LIGHT" and i.object.data.type == "AREA"]
+    others = "world" in d or any(d[k].emitter() is not None for k in d if k.startswith("mesh"))
+    if lamps and not others and not any(lamp.visible_camera for lamp in lamps):
+        d["integrator"]["hide_emitters"] = True
     return d
