@@ -4,10 +4,12 @@
 //!
 //! * L_emit: emission seen directly, added at the camera ray's hit only,
 //!   and the World (environment.rs) seen by a camera ray that escapes.
-//! * L_dir: next-event estimation. A light is picked by power, the World by
-//!   its share of the irradiance at the point (lights.rs; the seed sampled
-//!   emitters by area, 1/A_total). On an emitting triangle
-//!   a point x' has pdf_A = π·lum(Le)/P_total and is joined by a shadow ray:
+//! * L_dir: next-event estimation. A light is picked by the light tree
+//!   (by power where there is one), the World by its share of the
+//!   irradiance at the point (lights.rs; the seed sampled emitters by area,
+//!   1/A_total). On an emitting triangle a point x' has pdf_A =
+//!   P(triangle | x)/A (π·lum(Le)/P_total by power) and is joined by a
+//!   shadow ray:
 //!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
 //!   or, where the triangle is close, its direction is drawn over the
 //!   triangle's solid angle Ω with p_pick/Ω per steradian:

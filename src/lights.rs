@@ -1,9 +1,13 @@
-//! The light list: emissive triangles and punctual lights, picked with
-//! probability proportional to their power (luminance-weighted watts: π·A·Le
-//! for a triangle, see punctual.rs for the others). A triangle is then
-//! sampled uniformly, so a point x' on an emitter of radiance Le has area
-//! density pdf_A = p_local · π·lum(Le) / P_total: the same for every point of
-//! every emitter of that radiance, so it depends on the material.
+//! The light list: emissive triangles and punctual lights. Two or more
+//! local lights are picked by a light tree (light_tree.rs), by their
+//! irradiance bound at the shading point; a lone one, or all of them where
+//! `pick_by_power` asks, with probability proportional to their power
+//! (luminance-weighted watts: π·A·Le for a triangle, see punctual.rs for
+//! the others), which also starts light subpaths. A triangle is then
+//! sampled uniformly, so by power a point x' on an emitter of radiance Le
+//! has area density pdf_A = p_local · π·lum(Le) / P_total, the same for
+//! every emitter of that radiance; with the tree, p_local · P(light | p) /
+//! its area.
 //!
 //! The distant lights — the World and suns — are picked first, as a
 //! group, with a probability that depends on the shading point p: their
