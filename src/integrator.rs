@@ -124,7 +124,11 @@ impl<'a> Context<'a> {
     /// The line every render starts with: what the scene uses, what runs.
     pub fn features_line(&self, settings: &RenderSettings) -> String {
         let light_paths = if self.traces_light_paths(settings) { " + light paths" } else { "" };
-        format!("features: {}; kernel: {}{light_paths}", self.features, self.kernel(settings))
+        let tree = match self.lights.tree_size() {
+            0 => String::new(),
+            n => format!(" + light tree ({n} lights)"),
+        };
+        format!("features: {}; kernel: {}{light_paths}{tree}", self.features, self.kernel(settings))
     }
 
     /// Whether a render connects to light subpaths (light_paths.rs): they

@@ -511,6 +511,7 @@ fn the_light_tree_keeps_the_image_and_lowers_the_noise_of_a_lamp_hall() {
     let run = |seed: u64, by_power: bool| {
         let (img, stats, _) = common::render_prepared(&scene, &RenderSettings { seed, ..settings.clone() }, 2, |ctx| {
             assert_eq!(ctx.lights.tree_size(), 16 * 2 + 8, "a quad lamp is one light of the tree");
+            assert!(ctx.features_line(&settings).ends_with("+ light paths + light tree (40 lights)"), "{}", ctx.features_line(&settings));
             if by_power {
                 ctx.lights.pick_by_power();
             }
