@@ -738,6 +738,29 @@ mod tests {
         assert!(tree.pdf_area(&scene, 1, Vec3::new(2.3, 0.3, 0.5), true) * 0.5 > 0.9);
     }
 
+    /// A scene pays for the tree only with two or more local lights: a
+    /// quad lamp is one light, a sun or a black bulb none.
+    #[test]
+    fn only_two_or_more_local_lights_build_a_tree() {
+        let bulb = |name: &str, kind: PunctualKind, intensity: f32| PunctualLight { name: name.into(), kind, position: Vec3::Y, direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false, camera_sees: false };
+        let mut scene = lamp_under_a_world();
+        let [a, b, c] = scene.triangles[0].p();
+        // The lamp's mirror image across its hypotenuse: a quad with it.
+        scene.triangles.push(Triangle::new([b + c - a, c, b], [Vec3::Z; 3], 0));
+        assert_eq!(Lights::new(&scene).tree_size(), 0, "one quad lamp");
+        scene.punctual.push(bulb("sun", PunctualKind::Sun, 3.0));
+        scene.punctual.push(bulb("black", PunctualKind::Point, 0.0));
+        assert_eq!(Lights::new(&scene).tree_size(), 0, "a quad lamp, a sun and a black bulb");
+        scene.punctual.push(bulb("bulb", PunctualKind::Point, 2.0));
+        let lights = Lights::new(&scene);
+        assert_eq!(lights.tree_size(), 2, "a quad lamp and a bulb");
+        let p = Vec3::new(0.2, 0.2, 2.0);
+        let local: f32 = [0, 1].iter().map(|&t| lights.pdf_area(&scene, t, p, true) * 0.5).sum::<f32>() + lights.punctual_probability(2, p, true);
+        let total = local + lights.punctual_probability(0, p, true) + lights.world_probability(p, true);
+        assert!((total - 1.0).abs() < 1e-5, "{total}");
+        assert_eq!(lights.punctual_probability(1, p, true), 0.0);
+    }
+
     /// A one-sided emitter's light is estimated as a Lambertian emitter
     /// gives it, (P/π)·cos θ/d², with nothing behind it; a two-sided panel
     /// as (P/π)|cos θ|/d²; a point light, or emitters one- and two-sided
