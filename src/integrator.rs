@@ -803,6 +803,16 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     // paths through z divides the connection's density by.
     let mut z_depth = None;
     let mut z_mis_scale = mis_scale;
+    // The first connections' picks, drawn now so that their vertices load
+    // while the path finds z (LightVertices::prefetch).
+    let picks: [u32; CONNECTIONS as usize] = std::array::from_fn(|_| match light_vertices {
+        Some(vertices) => {
+            let u = rng.next_u32();
+            vertices.prefetch(u);
+            u
+        }
+        None => 0,
+    });
     rays.camera += 1;
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
@@ -880,10 +890,12 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             z_depth = Some(depth);
             let connections = if depth == 0 { CONNECTIONS } else { DEEP_CONNECTIONS };
             z_mis_scale = mis_scale * CONNECTIONS as f32 / connections as f32;
-            // A number of the sample's own stream: the Sobol sets stay
-            // with the light sample and the BSDF's.
-            for _ in 0..connections {
-                if let Some((v, scale)) = light_vertices.and_then(|vertices| vertices.pick(rng.next_u32())) {
+            // Numbers of the sample's own stream (the first drawn as the
+            // path started): the Sobol sets stay with the light sample and
+            // the BSDF's.
+            for k in 0..connections as usize {
+                let u = picks.get(k).copied().unwrap_or_else(|| rng.next_u32());
+                if let Some((v, scale)) = light_vertices.and_then(|vertices| vertices.pick(u)) {
                     if v.depth + depth < max_depth {
                         let tracing = if v.depth + 2 <= max_depth { tracing_over } else { 0.0 };
                         let joined = connection(ctx, prepared, &si, &bsdf, wo, v, scale / connections as f32, z_mis_scale, tracing, rng, rays);

@@ -274,10 +274,48 @@ impl LightVertices {
     /// subpaths: vertices / subpaths traced.
     #[inline]
     pub fn pick(&self, u: u32) -> Option<(&ConnectionVertex, f32)> {
-        let n = self.vertices.len();
-        let v = self.vertices.get(((u as u64 * n as u64) >> 32) as usize)?;
-        Some((v, n as f32 / self.traced as f32))
+        let v = self.vertices.get(self.index(u))?;
+        Some((v, self.vertices.len() as f32 / self.traced as f32))
     }
+
+    /// Starts loading the vertex `pick(u)` returns into the cache. A
+    /// camera path draws its connections' numbers as it starts, so that
+    /// their vertices, random ones among thousands (0.3–0.7 MB, more than
+    /// a core's L2 holds), arrive while it finds z: waiting for them had
+    /// been 6% of the Cornell box's time.
+    #[inline]
+    pub fn prefetch(&self, u: u32) {
+        if let Some(v) = self.vertices.get(self.index(u)) {
+            prefetch(v);
+        }
+    }
+
+    #[inline]
+    fn index(&self, u: u32) -> usize {
+        ((u as u64 * self.vertices.len() as u64) >> 32) as usize
+    }
+}
+
+/// Asks the CPU to load every cache line of `value` (a hint: it cannot
+/// fault, and does nothing where there is no such instruction).
+#[inline(always)]
+fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let start = value as *const T as *const i8;
+        let mut line = 0;
+        while line < std::mem::size_of::<T>() {
+            // SAFETY: prefetching any address is safe; these are inside `value`.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.add(line)) };
+            line += 64;
+        }
+        // SAFETY: as above: `value`'s last byte, whose line the loop misses
+        // when `value` does not start on a line.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(start.add(std::mem::size_of::<T>().saturating_sub(1))) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
 }
 
 /// Whether a light subpath can have a vertex on a surface and go on from
