@@ -121,8 +121,6 @@ struct WideNode {
     z: [f32; WIDTH],
     radius2: [f32; WIDTH],
     radius: [f32; WIDTH],
-    /// 1/r², at most 1/f32::MIN_POSITIVE: a bound of 1/d² that is finite.
-    inv_radius2: [f32; WIDTH],
     weight: [f32; WIDTH],
     axis_x: [f32; WIDTH],
     axis_y: [f32; WIDTH],
@@ -150,7 +148,6 @@ impl WideNode {
             z: zero,
             radius2: zero,
             radius: zero,
-            inv_radius2: [1.0 / f32::MIN_POSITIVE; WIDTH],
             weight: zero,
             axis_x: zero,
             axis_y: zero,
@@ -166,7 +163,7 @@ impl WideNode {
     fn set(&mut self, lane: usize, node: &Node, child: u32) {
         (self.x[lane], self.y[lane], self.z[lane]) = (node.centre.x, node.centre.y, node.centre.z);
         (self.radius2[lane], self.weight[lane], self.child[lane]) = (node.radius2, node.weight, child);
-        (self.radius[lane], self.inv_radius2[lane]) = (node.radius2.sqrt(), 1.0 / node.radius2.max(f32::MIN_POSITIVE));
+        self.radius[lane] = node.radius2.sqrt();
         if let Some(cone) = node.cone {
             (self.axis_x[lane], self.axis_y[lane], self.axis_z[lane]) = (cone.axis.x, cone.axis.y, cone.axis.z);
             (self.cos_o[lane], self.sin_o[lane], self.both_ways[lane]) = (cone.cos_o, cone.sin_o, cone.both_ways);
@@ -177,9 +174,10 @@ impl WideNode {
     /// constant 1/π: W·cos/d², d no less than the bounding sphere's radius,
     /// cos the bound of `Cone::cos_bound`, lane by lane and without
     /// branches, so that the compiler keeps the lanes in SIMD registers.
-    /// Three square roots and one division a lane (`cos_bound`'s four and
-    /// three): divisions and roots share one unit, and they were most of
-    /// the time.
+    /// Every term of cos(θ − θo − θu) is carried times d, which needs no
+    /// √(d²): two square roots, independent of each other, and one
+    /// division a lane, where `cos_bound` chains four and three (the
+    /// latency of that chain was most of a pick's time).
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into a dozen lanes
     fn importances(&self, p: Vec3) -> [f32; WIDTH] {
@@ -187,40 +185,51 @@ impl WideNode {
         for i in 0..WIDTH {
             let (vx, vy, vz) = (p.x - self.x[i], p.y - self.y[i], p.z - self.z[i]);
             let dist2 = vx * vx + vy * vy + vz * vz;
-            // Infinite at the centre, where only the inside-the-sphere
-            // branch below is taken and 1/d² is 1/r² at most.
-            let inv_d = 1.0 / dist2.sqrt();
-            let cos_t = (self.axis_x[i] * vx + self.axis_y[i] * vy + self.axis_z[i] * vz) * inv_d;
-            let cos_t = if self.both_ways[i] { cos_t.abs() } else { cos_t };
-            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-            let sin_u = self.radius[i] * inv_d;
-            let cos_u = (1.0 - sin_u * sin_u).max(0.0).sqrt();
+            let (r, r2) = (self.radius[i], self.radius2[i]);
+            // d·cos θ, d·sin θ, d·cos θu.
+            let dot = self.axis_x[i] * vx + self.axis_y[i] * vy + self.axis_z[i] * vz;
+            let dot = if self.both_ways[i] { dot.abs() } else { dot };
+            let sin = (dist2 - dot * dot).max(0.0).sqrt();
+            let cos_u = (dist2 - r2).max(0.0).sqrt();
+            // d·cos φ and d·sin φ, φ = θo + θu.
             let (cos_o, sin_o) = (self.cos_o[i], self.sin_o[i]);
-            let (cos_phi, sin_phi) = (cos_o * cos_u - sin_o * sin_u, sin_o * cos_u + cos_o * sin_u);
-            let outside = (cos_t * cos_phi + sin_t * sin_phi).max(0.0);
-            let cos = if dist2 <= self.radius2[i] || cos_t >= cos_phi { 1.0 } else { outside };
-            out[i] = self.weight[i] * cos * (inv_d * inv_d).min(self.inv_radius2[i]);
+            let (cos_phi, sin_phi) = (cos_o * cos_u - sin_o * r, sin_o * cos_u + cos_o * r);
+            // Inside the sphere or the widened cone the bound is W/d²;
+            // outside, W·cos(θ − φ)/d², d²·cos(θ − φ) ≤ d² on top.
+            let within = dist2 <= r2 || dot >= cos_phi;
+            let inv = 1.0 / if within { dist2.max(r2).max(f32::MIN_POSITIVE) } else { dist2 };
+            let cos = if within { 1.0 } else { (dot * cos_phi + sin * sin_phi).max(0.0) * inv };
+            out[i] = self.weight[i] * cos * inv;
         }
         out
     }
 
-    /// Each child's share of the picks at `p`: by importance, or, where no
-    /// child has any (a point behind every lamp) or it overflows, by
-    /// weight, or else evenly.
+    /// What each child's share of the picks at `p` is proportional to,
+    /// and their sum (positive and finite): the importance, or, where no
+    /// child has any (a point behind every lamp) or it overflows, the
+    /// weight, or else 1 for each child. A child's share is its part
+    /// over the sum, computed only for the child taken: dividing all eight
+    /// had lengthened the walk's chain of dependent operations.
     #[inline(always)]
-    fn shares(&self, p: Vec3) -> [f32; WIDTH] {
+    fn parts(&self, p: Vec3) -> ([f32; WIDTH], f32) {
         let importance = self.importances(p);
-        let total: f32 = importance.iter().sum();
+        let total = sum(&importance);
         if total > 0.0 && total.is_finite() {
-            return importance.map(|i| i / total);
+            return (importance, total);
         }
-        let total: f32 = self.weight.iter().sum();
+        let total = sum(&self.weight);
         if total > 0.0 && total.is_finite() {
-            return self.weight.map(|w| w / total);
+            return (self.weight, total);
         }
-        let used = self.child.iter().filter(|&&c| c != EMPTY).count() as f32;
-        std::array::from_fn(|i| if self.child[i] != EMPTY { 1.0 / used } else { 0.0 })
+        let used = self.child.map(|c| if c != EMPTY { 1.0 } else { 0.0 });
+        (used, sum(&used))
     }
+}
+
+/// Left to right, as `sample`'s running sums add them.
+#[inline(always)]
+fn sum(values: &[f32; WIDTH]) -> f32 {
+    values.iter().fold(0.0, |a, &v| a + v)
 }
 
 pub struct LightTree {
@@ -260,27 +269,27 @@ impl LightTree {
         let mut u = u.clamp(0.0, ONE_BELOW);
         let (mut node, mut probability) = (&self.nodes[0], 1.0f32);
         loop {
-            let shares = node.shares(p);
-            // The lane whose interval of [0, 1) holds u; past the last
-            // (the shares' sum rounded below u), the last lane with any.
-            let (mut lane, mut below) = (WIDTH, 0.0f32);
-            let mut last = (0, 0.0);
-            for (i, &share) in shares.iter().enumerate() {
-                if share > 0.0 {
-                    if u < below + share {
-                        lane = i;
-                        break;
-                    }
-                    last = (i, below);
-                    below += share;
-                }
+            let (parts, total) = node.parts(p);
+            // The lane whose interval of [0, total) holds u·total: the
+            // count of running sums at or below it, without a branch a
+            // lane (they mispredicted as often as not); one whose part is
+            // 0 has the running sum of the lane before and is never it.
+            let target = u * total;
+            let mut below = [0.0f32; WIDTH];
+            let mut lane = 0;
+            let mut running = 0.0f32;
+            for i in 0..WIDTH {
+                below[i] = running;
+                running += parts[i];
+                lane += (running <= target) as usize;
             }
             if lane == WIDTH {
-                (lane, below) = last;
+                // u·total rounded up to the sum: the last lane with a part.
+                lane = parts.iter().rposition(|&w| w > 0.0).unwrap_or(0);
             }
-            let share = shares[lane];
-            u = ((u - below) / share).clamp(0.0, ONE_BELOW);
-            probability *= share;
+            let part = parts[lane];
+            u = ((target - below[lane]) / part).clamp(0.0, ONE_BELOW);
+            probability *= part / total;
             let child = node.child[lane];
             if child & LEAF != 0 {
                 return ((child & !LEAF) as usize, probability, u);
@@ -295,7 +304,8 @@ impl LightTree {
         let mut probability = 1.0f32;
         loop {
             let node = &self.nodes[at / WIDTH];
-            probability *= node.shares(p)[at % WIDTH];
+            let (parts, total) = node.parts(p);
+            probability *= parts[at % WIDTH] / total;
             if node.parent == u32::MAX {
                 return probability;
             }
@@ -486,6 +496,32 @@ mod tests {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 30.0 - 15.0;
                 assert_consistent(&tree, p, &format!("{count} lights at {p}"));
             }
+        }
+    }
+
+    /// The lanes' bound, carried times d, is `Cone::cos_bound`'s
+    /// W·cos/max(d², r²) for nodes with and without cones, one- and
+    /// two-sided, near, inside and far from their spheres.
+    #[test]
+    fn the_lanes_bound_is_the_cones() {
+        let mut rng = Rng::new(3, 9);
+        let mut r = |s: f32| (rng.next_f32() * 2.0 - 1.0) * s;
+        for case in 0..2000 {
+            let centre = Vec3::new(r(5.0), r(5.0), r(5.0));
+            let radius2 = [0.0, 0.01, 1.0, 9.0][case % 4];
+            let axis = Vec3::new(r(1.0), r(1.0), r(1.0)).normalize_or(Vec3::Z);
+            let cos_o = [1.0, 0.9, 0.3, 0.01][case / 4 % 4];
+            let cone = (case % 3 != 0).then(|| Cone { axis, cos_o, sin_o: (1.0f32 - cos_o * cos_o).sqrt(), both_ways: case % 5 == 0 });
+            let node = Node { weight: 2.0, centre, radius2, cone, child: LEAF };
+            let mut wide = WideNode::empty(u32::MAX);
+            wide.set(3, &node, LEAF);
+            let p = centre + Vec3::new(r(1.0), r(1.0), r(1.0)).normalize_or(Vec3::X) * [0.0, 0.05, 0.5, 1.01, 3.0, 40.0][case % 6];
+            let v = p - centre;
+            let cos = cone.map_or(1.0, |c| c.cos_bound(v, v.length_squared(), radius2));
+            let expected = 2.0 * cos / v.length_squared().max(radius2).max(f32::MIN_POSITIVE);
+            let lanes = wide.importances(p);
+            assert!((lanes[3] - expected).abs() <= 1e-4 * expected + 1e-6, "case {case}: {} against {expected}", lanes[3]);
+            assert!(lanes.iter().enumerate().all(|(i, &l)| i == 3 || l == 0.0), "case {case}: empty lanes {lanes:?}");
         }
     }
 
