@@ -280,9 +280,9 @@ impl LightVertices {
 
     /// Starts loading the vertex `pick(u)` returns into the cache. A
     /// camera path draws its connections' numbers as it starts, so that
-    /// their vertices, random ones among thousands (0.3–0.7 MB, more than
-    /// a core's L2 holds), arrive while it finds z: waiting for them had
-    /// been 6% of the Cornell box's time.
+    /// their vertices, random ones among thousands (0.3–0.7 MB, which
+    /// share a core's 0.5 MB L2 with the BVH and the rest), arrive while
+    /// it finds z: waiting for them had been 6% of the Cornell box's time.
     #[inline]
     pub fn prefetch(&self, u: u32) {
         if let Some(v) = self.vertices.get(self.index(u)) {
