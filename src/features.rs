@@ -50,6 +50,10 @@ pub struct Features {
     pub ggx: bool,
     /// Some surface is metallic.
     pub metallic: bool,
+    /// Some surface's glossy lobe is sharp enough to focus light
+    /// (`Material::focuses_light`): one of the two things that make light
+    /// subpaths pay (`Context::light_paths_pay`).
+    pub focusing: bool,
     /// Emitting surface materials and their triangles (lamps excluded).
     pub emitters: usize,
     pub emitter_triangles: usize,
@@ -115,6 +119,7 @@ impl Features {
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
+            f.focusing |= m.focuses_light(&scene.images);
         }
         f
     }
@@ -122,7 +127,7 @@ impl Features {
 
 impl fmt::Display for Features {
     fn fmt(&self, out: &mut fmt::Formatter) -> fmt::Result {
-        let flags = [(self.diffuse, "diffuse"), (self.ggx, "ggx"), (self.metallic, "metallic")];
+        let flags = [(self.diffuse, "diffuse"), (self.ggx, "ggx"), (self.metallic, "metallic"), (self.focusing, "focusing")];
         let mut on: Vec<String> = flags.iter().filter(|(b, _)| *b).map(|(_, n)| n.to_string()).collect();
         if self.emitters > 0 {
             on.push(format!("emitters={} ({} tris)", self.emitters, self.emitter_triangles));

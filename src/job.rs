@@ -8,7 +8,7 @@ use crate::features::FeatureMode;
 use crate::lamps::AreaLight;
 use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
-use crate::render::{resolution, RenderSettings};
+use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
 use crate::request::{LightSize, RenderRequest};
 use crate::scene::Scene;
@@ -178,7 +178,11 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     };
     // `--light-paths` turns the connections and light tracing on and off
     // together.
-    let light_paths = options.light_paths.unwrap_or(true);
+    let light_paths = match options.light_paths {
+        Some(true) => LightPaths::On,
+        Some(false) => LightPaths::Off,
+        None => LightPaths::Auto,
+    };
     let settings = RenderSettings {
         width,
         height,
@@ -190,7 +194,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         features: options.features.unwrap_or_default(),
         sampler: options.sampler.unwrap_or_default(),
         light_paths,
-        light_tracing: light_paths,
+        light_tracing: true,
         strategies: Default::default(),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })

@@ -64,10 +64,11 @@ struct RenderOptions {
     /// where BSDF-sampled rays ignore emitters) [default: on].
     #[arg(long, value_parser = ["on", "off"])]
     mis: Option<String>,
-    /// Connections of camera vertices to light subpaths (bidirectional
-    /// path tracing's s = 2 strategy; needs MIS and emitting surfaces)
-    /// [default: on].
-    #[arg(long, value_parser = ["on", "off"])]
+    /// Connections of camera vertices to light subpaths, and light tracing
+    /// (needs MIS and emitting surfaces); auto: on where some surface is
+    /// glossy enough to focus light into caustics (roughness below 0.6)
+    /// [default: auto].
+    #[arg(long, value_parser = ["auto", "on", "off"])]
     light_paths: Option<String>,
     /// BSDF model: what Cycles' Principled BSDF does, or the seed's formulas [default: principled].
     #[arg(long, value_parser = ["principled", "seed"])]
@@ -120,7 +121,7 @@ impl RenderOptions {
             max_depth: self.max_depth,
             seed: self.seed,
             mis: self.mis.as_deref().map(|m| m == "on"),
-            light_paths: self.light_paths.as_deref().map(|m| m == "on"),
+            light_paths: self.light_paths.as_deref().and_then(|m| (m != "auto").then_some(m == "on")),
             sampler: self.sampler.as_deref().map(|s| if s == "random" { Sampler::Random } else { Sampler::Sobol }),
             camera: self.camera.clone(),
             scene_index: self.scene_index,

@@ -74,6 +74,7 @@ pub fn render_progressive(
 mod tests {
     use super::*;
     use crate::loader::{load_bytes, LoadOptions};
+    use crate::render::LightPaths;
     use std::sync::atomic::Ordering;
 
     fn cornell() -> crate::scene::Scene {
@@ -81,7 +82,7 @@ mod tests {
     }
 
     fn settings(spp: u32) -> RenderSettings {
-        RenderSettings { width: 24, height: 24, spp, max_depth: 4, seed: 3, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: true, light_tracing: true, strategies: Default::default() }
+        RenderSettings { width: 24, height: 24, spp, max_depth: 4, seed: 3, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, strategies: Default::default() }
     }
 
     #[test]

@@ -63,15 +63,26 @@ pub struct RenderSettings {
     pub features: FeatureMode,
     /// Where each pixel sample's numbers come from (rng.rs).
     pub sampler: Sampler,
-    /// Connect camera vertices to light subpaths' first vertices
+    /// Connect camera vertices to light subpaths' vertices
     /// (light_paths.rs) where MIS is on and emitting triangles exist.
-    pub light_paths: bool,
+    pub light_paths: LightPaths,
     /// Also add light subpaths' vertices to the pixels they appear in
     /// (light_tracing.rs), where light paths are on.
     pub light_tracing: bool,
     /// Whose light reaches the image: all of it but when taking a render
     /// apart (strategies.rs).
     pub strategies: Strategies,
+}
+
+/// Whether light subpaths are traced (light_paths.rs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightPaths {
+    /// Where they find light that camera paths reach only by chance
+    /// (`Context::light_paths_pay`).
+    #[default]
+    Auto,
+    On,
+    Off,
 }
 
 /// Sums of radiance samples per pixel, row-major from the top-left.

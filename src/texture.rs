@@ -110,6 +110,17 @@ fn wrap_index(i: i64, n: u32, wrap: Wrap) -> u32 {
 }
 
 impl Image {
+    /// The smallest value of one channel (0 = R … 3 = A) over all texels,
+    /// as linear data (the metallic-roughness texture's encoding); 1 for
+    /// an image without texels. A NaN texel is passed over.
+    pub fn smallest(&self, channel: usize) -> f32 {
+        let channel = channel.min(3);
+        match &self.texels {
+            Texels::Rgba8(t) => t.iter().map(|texel| texel[channel]).min().map_or(1.0, |v| v as f32 / 255.0),
+            Texels::RgbaF32(t) => t.iter().map(|texel| texel[channel]).fold(f32::INFINITY, f32::min).min(1.0),
+        }
+    }
+
     /// One texel, decoded to linear float.
     pub fn texel(&self, x: u32, y: u32, encoding: Encoding) -> Vec4 {
         let i = (y as usize) * (self.width as usize) + x as usize;

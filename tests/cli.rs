@@ -105,13 +105,14 @@ fn inspect_reports_a_sample_model() {
 
 /// Every render starts with one line saying what the scene uses and which
 /// kernel runs; `--features all` forces the general kernel, and for the
-/// same seed both write the same pixels.
+/// same seed both write the same pixels. A scene with no glossy surface
+/// goes without light subpaths unless asked for them.
 #[test]
 fn the_features_line_and_the_general_kernel() {
     let dir = temp_dir("features");
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box-diffuse.gltf");
     let mut images = Vec::new();
-    for (mode, kernel) in [("auto", "kernel: lambert + emitters + light paths"), ("all", "kernel: principled + glass + emitters + lamps + punctual + light paths")] {
+    for (mode, kernel) in [("auto", "kernel: lambert + emitters"), ("all", "kernel: principled + glass + emitters + lamps + punctual")] {
         let exr = dir.join(format!("{mode}.exr"));
         let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "3", "--width", "24", "--height", "24", "--features", mode]);
         let err = stderr(&o);
@@ -124,6 +125,18 @@ fn the_features_line_and_the_general_kernel() {
     assert!(bits(&images[0]) == bits(&images[1]), "the general kernel's pixels differ");
     let o = glint(&["render", scene.to_str().unwrap(), "--features", "some"]);
     assert!(!o.status.success() && stderr(&o).contains("--features"));
+    let first_line = |scene: &PathBuf, extra: &[&str]| {
+        let exr = dir.join("paths.exr");
+        let o = glint(&[&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "1", "--width", "8", "--height", "8"], extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o).lines().next().unwrap_or_default().to_string()
+    };
+    assert!(first_line(&scene, &["--light-paths", "on"]).ends_with("kernel: lambert + emitters + light paths"));
+    let glossy = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
+    let line = first_line(&glossy, &[]);
+    assert!(line.contains("focusing") && line.ends_with("+ light paths"), "{line}");
+    assert!(!first_line(&glossy, &["--light-paths", "off"]).contains("light paths"));
+    assert!(first_line(&glossy, &["--light-paths", "auto"]).ends_with("+ light paths"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -7,7 +7,7 @@ use common::{closed_box, mean_and_standard_error, region_mean, render, settings}
 use glint::Vec3;
 use glint::integrator::Context;
 use glint::loader::{load_bytes, LoadOptions};
-use glint::render::{render_pass, Film, PassStats, RenderSettings};
+use glint::render::{render_pass, Film, LightPaths, PassStats, RenderSettings};
 use glint::scene::Scene;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -466,7 +466,7 @@ fn light_paths_keep_the_image_and_lower_the_noise_of_a_lamp_under_a_ceiling() {
         scene.triangles.extend(common::horizontal_quad(centre, half, -0.99, true, 2));
         let scene = Scene::new(scene.triangles, scene.materials, scene.camera);
         let with = RenderSettings { mis: true, ..settings(24, 24, 64, 6, 0) };
-        let without = RenderSettings { light_paths: false, ..with.clone() };
+        let without = RenderSettings { light_paths: LightPaths::Off, ..with.clone() };
         let (v_on, v_off) = same_image_less_noise(&scene, &with, &without, &format!("light paths, roughness {roughness}"));
         assert!(v_on < 0.8 * v_off, "roughness {roughness}: light paths {v_on} vs without {v_off}");
     }
@@ -561,7 +561,7 @@ fn light_tracing_keeps_the_image_and_lowers_the_noise_of_a_caustic() {
 #[test]
 fn the_cornell_box_is_the_same_with_all_four_strategies_as_with_camera_paths_alone() {
     let scene = cornell_box();
-    let run = |light_paths: bool, seed: u64| render(&scene, &RenderSettings { mis: true, light_paths, light_tracing: light_paths, ..settings(64, 64, 128, 16, seed) }, 2).0;
+    let run = |light_paths: bool, seed: u64| render(&scene, &RenderSettings { mis: true, light_paths: if light_paths { LightPaths::On } else { LightPaths::Off }, light_tracing: light_paths, ..settings(64, 64, 128, 16, seed) }, 2).0;
     let (all, camera) = ([run(true, 11), run(true, 12)].concat(), [run(false, 13), run(false, 14)].concat());
     for c in 0..3 {
         let diffs: Vec<f32> = all.iter().zip(&camera).map(|(a, b)| a[c] - b[c]).collect();

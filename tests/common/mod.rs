@@ -7,7 +7,7 @@ use glint::Vec3;
 use glint::camera::Camera;
 use glint::integrator::Context;
 use glint::material::Material;
-use glint::render::{render_pass, Film, PassStats, RenderSettings};
+use glint::render::{render_pass, Film, LightPaths, PassStats, RenderSettings};
 use glint::scene::{Scene, Triangle};
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
@@ -38,7 +38,7 @@ pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> (Vec<
 }
 
 pub fn settings(width: u32, height: u32, spp: u32, max_depth: u32, seed: u64) -> RenderSettings {
-    RenderSettings { width, height, spp, max_depth, seed, mis: false, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: true, light_tracing: true, strategies: Default::default() }
+    RenderSettings { width, height, spp, max_depth, seed, mis: false, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, strategies: Default::default() }
 }
 
 /// Two triangles of the square |x − cx|, |z − cz| ≤ half in the plane
