@@ -291,6 +291,10 @@ pub struct SurfaceHit {
 }
 
 impl SurfaceHit {
+    // Inlined, both build the record in the caller's frame: returned, its
+    // 176 bytes were copied by a memcpy that was 1.6% of the hall's time
+    // (perf); 1–3% less time per sample on the benchmark scenes.
+    #[inline(always)]
     pub fn new(scene: &Scene, hit: &Hit, dir: Vec3) -> Self {
         Self::with_normal(scene, hit, dir).0
     }
@@ -299,6 +303,7 @@ impl SurfaceHit {
     /// the fallback for a viewer below it (zero where there is none): a
     /// light vertex is viewed from elsewhere than its ray came from
     /// (`light_paths.rs`).
+    #[inline(always)]
     pub fn with_normal(scene: &Scene, hit: &Hit, dir: Vec3) -> (Self, Vec3) {
         let tri = &scene.triangles[hit.triangle as usize];
         let material = &scene.materials[tri.material as usize];
