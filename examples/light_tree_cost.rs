@@ -1,7 +1,7 @@
 //! What a light tree costs: its build per light, a pick (`sample`) and a
 //! light's probability for MIS (`probability`), on 1,000 to 1,000,000
 //! small lamps facing random ways in a 100 m cube, picked for random
-//! points in it, on one thread.
+//! points in it facing random ways, on one thread.
 //!
 //!   cargo run --release --example light_tree_cost [-- --max 1000000]
 
@@ -30,12 +30,12 @@ fn main() -> anyhow::Result<()> {
         let start = Instant::now();
         let tree = LightTree::new(&lights).expect("lights");
         let build = start.elapsed().as_secs_f64() / count as f64;
-        let queries: Vec<(Vec3, f32)> = (0..200_000).map(|_| (point(100.0), point(1.0).x + 0.5)).collect();
+        let queries: Vec<(Vec3, Vec3, f32)> = (0..200_000).map(|_| (point(100.0), point(2.0).normalize_or(Vec3::Y), point(1.0).x + 0.5)).collect();
         let start = Instant::now();
-        let picked: Vec<usize> = queries.iter().map(|&(p, u)| black_box(tree.sample(p, u)).0).collect();
+        let picked: Vec<usize> = queries.iter().map(|&(p, n, u)| black_box(tree.sample(p, n, u)).0).collect();
         let pick = start.elapsed().as_secs_f64() / queries.len() as f64;
         let start = Instant::now();
-        let total: f32 = queries.iter().zip(&picked).map(|(&(p, _), &light)| black_box(tree.probability(light, p))).sum();
+        let total: f32 = queries.iter().zip(&picked).map(|(&(p, n, _), &light)| black_box(tree.probability(light, p, n))).sum();
         let probability = start.elapsed().as_secs_f64() / queries.len() as f64;
         anyhow::ensure!(total.is_finite() && total > 0.0, "probabilities summed to {total}");
         println!("| {count} | {:.2} | {:.3} | {:.3} |", build * 1e6, pick * 1e6, probability * 1e6);

@@ -398,11 +398,22 @@ pub(crate) fn same_side(si: &SurfaceHit, wi: Vec3, local: Vec3) -> bool {
 /// and it must pass `same_side`.
 #[inline]
 fn toward_light<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wi: Vec3) -> Option<Vec3> {
+    // `light_side` is the normal of this test.
     if wi.dot(si.ng) <= 0.0 && !bsdf.transmits() {
         return None;
     }
     let local = si.frame.to_local(wi);
     same_side(si, wi, local).then_some(local)
+}
+
+/// The normal above whose plane light can reach a vertex (`toward_light`):
+/// the geometric one, or zero where the BSDF transmits and light counts
+/// from both sides. The light tree bounds each light's share by it
+/// (`LightTree::sample`); the light sample at a vertex and every later
+/// density of one there (`Previous::light_side`) use the same.
+#[inline]
+fn light_side<B: Bsdf>(si: &SurfaceHit, bsdf: &B) -> Vec3 {
+    if bsdf.transmits() { Vec3::ZERO } else { si.ng }
 }
 
 /// f(wo, wi) of a light sample, and the BSDF's pdf of wi where MIS needs it.
@@ -525,7 +536,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
     }
     // One draw: the light's point stays stratified within each pick.
     let (u_pick, u) = rng.next_1d_2d();
-    match ctx.lights.sample(ctx.scene, si.p, u_pick, u, mis) {
+    match ctx.lights.sample(ctx.scene, si.p, light_side(si, bsdf), u_pick, u, mis) {
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
         Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, chain, &ls, rng, rays),
@@ -585,6 +596,8 @@ struct Previous {
     p: Vec3,
     /// Geometric normal there.
     ng: Vec3,
+    /// `light_side` there.
+    light_side: Vec3,
     /// Solid-angle pdf of the BSDF sample that produced the ray, and
     /// whether it came from a delta lobe (which light sampling cannot match).
     bsdf_pdf: f32,
@@ -674,7 +687,7 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previou
             continue;
         }
         if let Some(seen) = light.seen(o, d, t_max) {
-            l += seen.radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p, mis) * seen.pdf);
+            l += seen.radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf);
         }
     }
     l
@@ -734,7 +747,7 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
         return le;
     }
     let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng));
-    le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, t * t, cos_light, mis), q)
+    le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, from.light_side, t * t, cos_light, mis), q)
 }
 
 /// Light vertex `v`'s light, reaching camera vertex `si` (BSDF `bsdf`,
@@ -821,7 +834,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
-    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0 };
+    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, light_side: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0 };
     let (mis_scale, max_vertex_depth, subpaths_traced) = light_vertices.map_or((1.0, 0, 0.0), |v| (v.mis_scale, v.max_vertex_depth, v.tracing));
     // n_T M / p_cam(x1) where light tracing (light_tracing.rs) makes the
     // paths through x1: z is x1, which needs x1 to connect.
@@ -976,7 +989,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         } else {
             (0.0, 0.0, 0.0)
         };
-        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing };
+        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, light_side: light_side(&si, &bsdf), bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing };
         rays.bounce += 1;
     }
     l

@@ -171,17 +171,28 @@ impl WideNode {
     }
 
     /// Each child's upper bound of its irradiance at `p`, up to the
-    /// constant 1/π: W·cos/d², d no less than the bounding sphere's radius,
-    /// cos the bound of `Cone::cos_bound`, lane by lane and without
-    /// branches, so that the compiler keeps the lanes in SIMD registers.
+    /// constant 1/π: W·cos·cos'/d², d no less than the bounding sphere's
+    /// radius, cos the bound of `Cone::cos_bound` and cos' that of the
+    /// receiver's, lane by lane and without branches, so that the compiler
+    /// keeps the lanes in SIMD registers.
     /// Every term of cos(θ − θo − θu) is carried times d, which needs no
     /// √(d²): two square roots, independent of each other, and one
     /// division a lane, where `cos_bound` chains four and three (the
     /// latency of that chain was most of a pick's time).
+    ///
+    /// `n` is the receiver's normal: light that reaches `p` from below its
+    /// plane counts for nothing there (an opaque surface reflects only
+    /// what lands on the side it is seen from), so a child gets at most
+    /// cos(ψ − θu) of its bound, ψ the angle from `n` to the child's centre
+    /// and θu the half-angle its sphere subtends. A zero `n` bounds
+    /// nothing: light counts from every side (a BSDF that transmits). A
+    /// lamp 20 m down a hall, 3 m above the floor, gets cos' ≈ 0.15 of the
+    /// bound it had without the receiver's.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into a dozen lanes
-    fn importances(&self, p: Vec3) -> [f32; WIDTH] {
+    fn importances(&self, p: Vec3, n: Vec3) -> [f32; WIDTH] {
         let mut out = [0.0; WIDTH];
+        let receiver = n != Vec3::ZERO;
         for i in 0..WIDTH {
             let (vx, vy, vz) = (p.x - self.x[i], p.y - self.y[i], p.z - self.z[i]);
             let dist2 = vx * vx + vy * vy + vz * vz;
@@ -199,7 +210,13 @@ impl WideNode {
             let within = dist2 <= r2 || dot >= cos_phi;
             let inv = 1.0 / if within { dist2.max(r2).max(f32::MIN_POSITIVE) } else { dist2 };
             let cos = if within { 1.0 } else { (dot * cos_phi + sin * sin_phi).max(0.0) * inv };
-            out[i] = self.weight[i] * cos * inv;
+            // d·cos ψ and d·sin ψ; d²·cos(ψ − θu) = d cos ψ·d cos θu +
+            // d sin ψ·d sin θu, and 1 where the sphere holds the normal.
+            let toward = -(n.x * vx + n.y * vy + n.z * vz);
+            let across = (dist2 - toward * toward).max(0.0).sqrt();
+            let open = !receiver || dist2 <= r2 || toward >= cos_u;
+            let facing = if open { 1.0 } else { (toward * cos_u + across * r).max(0.0) / dist2 };
+            out[i] = self.weight[i] * cos * facing.min(1.0) * inv;
         }
         out
     }
@@ -211,8 +228,8 @@ impl WideNode {
     /// over the sum, computed only for the child taken: dividing all eight
     /// had lengthened the walk's chain of dependent operations.
     #[inline(always)]
-    fn parts(&self, p: Vec3) -> ([f32; WIDTH], f32) {
-        let importance = self.importances(p);
+    fn parts(&self, p: Vec3, n: Vec3) -> ([f32; WIDTH], f32) {
+        let importance = self.importances(p, n);
         let total = sum(&importance);
         if total > 0.0 && total.is_finite() {
             return (importance, total);
@@ -262,14 +279,15 @@ impl LightTree {
         Some(tree)
     }
 
-    /// A light for a point at `p`, from `u` in [0, 1): its index, the
-    /// probability of picking it, and u rescaled within the pick to a fresh
-    /// number in [0, 1).
-    pub fn sample(&self, p: Vec3, u: f32) -> (usize, f32, f32) {
+    /// A light for a point at `p` whose light counts from above the plane
+    /// of normal `n` only (zero: from every side), from `u` in [0, 1): its
+    /// index, the probability of picking it, and u rescaled within the pick
+    /// to a fresh number in [0, 1).
+    pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
         let mut u = u.clamp(0.0, ONE_BELOW);
         let (mut node, mut probability) = (&self.nodes[0], 1.0f32);
         loop {
-            let (parts, total) = node.parts(p);
+            let (parts, total) = node.parts(p, n);
             // The lane whose interval of [0, total) holds u·total: the
             // count of running sums at or below it, without a branch a
             // lane (they mispredicted as often as not); one whose part is
@@ -298,13 +316,14 @@ impl LightTree {
         }
     }
 
-    /// The probability with which `sample` picks `light` for a point at `p`.
-    pub fn probability(&self, light: usize, p: Vec3) -> f32 {
+    /// The probability with which `sample` picks `light` for a point at
+    /// `p` and normal `n`.
+    pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> f32 {
         let mut at = self.leaf_of[light] as usize;
         let mut probability = 1.0f32;
         loop {
             let node = &self.nodes[at / WIDTH];
-            let (parts, total) = node.parts(p);
+            let (parts, total) = node.parts(p, n);
             probability *= parts[at % WIDTH] / total;
             if node.parent == u32::MAX {
                 return probability;
@@ -460,21 +479,21 @@ mod tests {
     /// Stratified numbers down the tree land on each light as often as
     /// its probability says (a light's numbers are one interval, so the
     /// count is within one of n·p), and the probabilities sum to 1.
-    fn assert_consistent(tree: &LightTree, p: Vec3, what: &str) {
+    fn assert_consistent(tree: &LightTree, p: Vec3, normal: Vec3, what: &str) {
         let n = 20_000;
         let mut counts = vec![0u32; tree.len()];
         for k in 0..n {
-            let (light, probability, rest) = tree.sample(p, (k as f32 + 0.5) / n as f32);
+            let (light, probability, rest) = tree.sample(p, normal, (k as f32 + 0.5) / n as f32);
             assert!((0.0..1.0).contains(&rest), "{what}: u rescaled to {rest}");
             // The same shares, multiplied top-down here and bottom-up there.
-            let again = tree.probability(light, p);
+            let again = tree.probability(light, p, normal);
             assert!((probability - again).abs() <= 1e-5 * again, "{what}: light {light}: {probability} {again}");
             counts[light] += 1;
         }
-        let total: f32 = (0..tree.len()).map(|i| tree.probability(i, p)).sum();
+        let total: f32 = (0..tree.len()).map(|i| tree.probability(i, p, normal)).sum();
         assert!((total - 1.0).abs() < 1e-4, "{what}: probabilities sum to {total}");
         for (i, &c) in counts.iter().enumerate() {
-            let expected = n as f32 * tree.probability(i, p);
+            let expected = n as f32 * tree.probability(i, p, normal);
             assert!((c as f32 - expected).abs() <= 2.0 + 1e-3 * expected, "{what}: light {i} picked {c} times for {expected}");
         }
     }
@@ -492,9 +511,10 @@ mod tests {
                 })
                 .collect();
             let tree = LightTree::new(&lights).unwrap();
-            for _ in 0..3 {
+            for k in 0..4 {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 30.0 - 15.0;
-                assert_consistent(&tree, p, &format!("{count} lights at {p}"));
+                let n = if k % 2 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
+                assert_consistent(&tree, p, n, &format!("{count} lights at {p}, normal {n}"));
             }
         }
     }
@@ -519,10 +539,62 @@ mod tests {
             let v = p - centre;
             let cos = cone.map_or(1.0, |c| c.cos_bound(v, v.length_squared(), radius2));
             let expected = 2.0 * cos / v.length_squared().max(radius2).max(f32::MIN_POSITIVE);
-            let lanes = wide.importances(p);
+            let lanes = wide.importances(p, Vec3::ZERO);
             assert!((lanes[3] - expected).abs() <= 1e-4 * expected + 1e-6, "case {case}: {} against {expected}", lanes[3]);
             assert!(lanes.iter().enumerate().all(|(i, &l)| i == 3 || l == 0.0), "case {case}: empty lanes {lanes:?}");
         }
+    }
+
+    /// The receiver's factor (the lane's importance with a normal over
+    /// that without) is at least the cosine from the normal to every point
+    /// of the child's sphere, 1 where the sphere holds the normal, 0 where
+    /// the sphere lies wholly below the plane; a receiver bound that
+    /// missed a point would bias the image wherever light lands there.
+    #[test]
+    fn the_receivers_bound_holds_for_every_point_of_the_sphere() {
+        let mut rng = Rng::new(5, 2);
+        let mut r = |s: f32| (rng.next_f32() * 2.0 - 1.0) * s;
+        let mut rng2 = Rng::new(6, 3);
+        for case in 0..2000 {
+            let centre = Vec3::new(r(5.0), r(5.0), r(5.0));
+            let radius = [0.0, 0.1, 1.0, 3.0][case % 4];
+            let node = Node { weight: 1.0, centre, radius2: radius * radius, cone: None, child: LEAF };
+            let mut wide = WideNode::empty(u32::MAX);
+            wide.set(0, &node, LEAF);
+            let p = centre + Vec3::new(r(1.0), r(1.0), r(1.0)).normalize_or(Vec3::X) * [0.5, 1.01, 1.5, 4.0, 40.0][case % 5];
+            let n = Vec3::new(r(1.0), r(1.0), r(1.0)).normalize_or(Vec3::Y);
+            let (with, without) = (wide.importances(p, n)[0], wide.importances(p, Vec3::ZERO)[0]);
+            let factor = with / without;
+            assert!((0.0..=1.0).contains(&factor), "case {case}: {factor}");
+            let to_centre = centre - p;
+            if to_centre.length() <= radius {
+                assert_eq!(factor, 1.0, "case {case}: inside the sphere");
+            }
+            if n.dot(to_centre) < -radius {
+                assert_eq!(factor, 0.0, "case {case}: below the plane");
+            }
+            for _ in 0..50 {
+                let q = centre + Vec3::new(rng2.next_f32() - 0.5, rng2.next_f32() - 0.5, rng2.next_f32() - 0.5).normalize_or(Vec3::Z) * radius * rng2.next_f32().sqrt();
+                let cos = n.dot((q - p).normalize_or_zero());
+                assert!(cos <= factor + 1e-4, "case {case}: a point at cos {cos} over the bound {factor}");
+            }
+        }
+    }
+
+    /// Light from below a receiver's plane counts for nothing there: a
+    /// lamp under a floor gets none of its picks, and picks with a normal
+    /// still match their probabilities.
+    #[test]
+    fn a_light_below_the_receivers_plane_gets_no_picks() {
+        let tree = LightTree::new(&[point(Vec3::new(0.0, 3.0, 0.0), 1.0), point(Vec3::new(0.5, -3.0, 0.0), 10.0), point(Vec3::new(20.0, 3.0, 0.0), 1.0)]).unwrap();
+        let floor = Vec3::ZERO;
+        assert_eq!(tree.probability(1, floor, Vec3::Y), 0.0);
+        assert!(tree.probability(1, floor, Vec3::ZERO) > 0.5, "without a normal the bright one below leads");
+        // The far lamp is seen at a grazing 8.5°: its share shrinks by cos.
+        let far = (tree.probability(2, floor, Vec3::Y), tree.probability(2, floor, Vec3::ZERO) / (1.0 - tree.probability(1, floor, Vec3::ZERO)));
+        assert!(far.0 < 0.5 * far.1, "{far:?}");
+        assert_consistent(&tree, floor, Vec3::Y, "a floor");
+        assert_consistent(&tree, Vec3::new(10.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0).normalize(), "a slope");
     }
 
     /// Two equal lamps 100 m apart: beside one, it gets nearly every pick;
@@ -532,8 +604,8 @@ mod tests {
         let (a, b) = (Vec3::ZERO, Vec3::new(100.0, 0.0, 0.0));
         let tree = LightTree::new(&[point(a, 1.0), point(b, 1.0)]).unwrap();
         let near_a = Vec3::new(0.0, 1.0, 0.0);
-        assert!(tree.probability(0, near_a) > 0.999, "{}", tree.probability(0, near_a));
-        assert!((tree.probability(1, Vec3::new(50.0, 3.0, 0.0)) - 0.5).abs() < 1e-6);
+        assert!(tree.probability(0, near_a, Vec3::ZERO) > 0.999, "{}", tree.probability(0, near_a, Vec3::ZERO));
+        assert!((tree.probability(1, Vec3::new(50.0, 3.0, 0.0), Vec3::ZERO) - 0.5).abs() < 1e-6);
     }
 
     /// A one-sided lamp facing away from a point gets none of its picks
@@ -544,14 +616,14 @@ mod tests {
         let lights = [panel(Vec3::ZERO, -Vec3::Y, 1.0), panel(Vec3::new(3.0, 0.0, 0.0), Vec3::Y, 3.0)];
         let tree = LightTree::new(&lights).unwrap();
         let above = Vec3::new(1.5, 5.0, 0.0);
-        assert_eq!(tree.probability(0, above), 0.0);
-        assert_eq!(tree.probability(1, above), 1.0);
-        let (light, probability, _) = tree.sample(above, 0.0);
+        assert_eq!(tree.probability(0, above, Vec3::ZERO), 0.0);
+        assert_eq!(tree.probability(1, above, Vec3::ZERO), 1.0);
+        let (light, probability, _) = tree.sample(above, Vec3::ZERO, 0.0);
         assert_eq!((light, probability), (1, 1.0));
         // Below the second lamp, the first faces the point.
-        assert!(tree.probability(0, Vec3::new(1.5, -5.0, 0.0)) > 0.99);
+        assert!(tree.probability(0, Vec3::new(1.5, -5.0, 0.0), Vec3::ZERO) > 0.99);
         // Level with both, edge-on, the bounds' spheres still count.
-        assert_consistent(&tree, Vec3::new(1.5, 0.0, 5.0), "edge-on");
+        assert_consistent(&tree, Vec3::new(1.5, 0.0, 5.0), Vec3::ZERO, "edge-on");
     }
 
     /// Lights all in one place, in a line, of zero or overflowing weight,
@@ -564,25 +636,25 @@ mod tests {
         // A balanced binary tree of depth 10, opened three levels a node.
         let deepest = (0..tree.len()).map(|i| tree.depth(i)).max().unwrap();
         assert!(deepest <= 4, "{deepest}");
-        assert!((tree.probability(17, Vec3::ZERO) - 1e-3).abs() < 1e-6);
+        assert!((tree.probability(17, Vec3::ZERO, Vec3::ZERO) - 1e-3).abs() < 1e-6);
         // Each 1.2× farther than the last: a cost split would peel them off
         // one at a time; past MAX_COST_DEPTH the median takes over.
         let line: Vec<TreeLight> = (0..200).map(|i| point(Vec3::new(1.2f32.powi(i), 0.0, 0.0), 1.0)).collect();
         let tree = LightTree::new(&line).unwrap();
         let deepest = (0..tree.len()).map(|i| tree.depth(i)).max().unwrap();
         assert!(deepest <= MAX_COST_DEPTH as usize + 9, "{deepest}");
-        assert_consistent(&tree, Vec3::new(3.0, 1.0, 0.0), "a line");
+        assert_consistent(&tree, Vec3::new(3.0, 1.0, 0.0), Vec3::ZERO, "a line");
         let odd = [point(Vec3::ZERO, 0.0), point(Vec3::X, f32::INFINITY), point(Vec3::Y, 1.0), point(Vec3::ONE, 0.0)];
         let tree = LightTree::new(&odd).unwrap();
         for p in [Vec3::ZERO, Vec3::splat(5.0)] {
-            let (light, probability, rest) = tree.sample(p, 0.3);
+            let (light, probability, rest) = tree.sample(p, Vec3::ZERO, 0.3);
             assert!(light < 4 && probability.is_finite() && (0.0..1.0).contains(&rest));
-            let total: f32 = (0..4).map(|i| tree.probability(i, p)).sum();
+            let total: f32 = (0..4).map(|i| tree.probability(i, p, Vec3::ZERO)).sum();
             assert!((total - 1.0).abs() < 1e-6, "{total}");
         }
         let one = LightTree::new(&[point(Vec3::ZERO, 2.0)]).unwrap();
-        assert_eq!(one.sample(Vec3::X, 0.7), (0, 1.0, 0.7));
-        assert_eq!(one.probability(0, Vec3::X), 1.0);
+        assert_eq!(one.sample(Vec3::X, Vec3::ZERO, 0.7), (0, 1.0, 0.7));
+        assert_eq!(one.probability(0, Vec3::X, Vec3::ZERO), 1.0);
         assert!(LightTree::new(&[]).is_none());
     }
 

@@ -140,11 +140,11 @@ impl LocalTree {
     }
 
     /// The density per unit area of the tree picking emitter `k` and a
-    /// point on it by area, for a point at `p`.
-    fn area_density(&self, k: usize, p: Vec3) -> f32 {
+    /// point on it by area, for a point at `p` of normal `n`.
+    fn area_density(&self, k: usize, p: Vec3, n: Vec3) -> f32 {
         let item = self.of_emitter[k] as usize;
         match self.items[item] {
-            TreeItem::Emitters { area, .. } if area > 0.0 => self.tree.probability(item, p) / area,
+            TreeItem::Emitters { area, .. } if area > 0.0 => self.tree.probability(item, p, n) / area,
             _ => 0.0,
         }
     }
@@ -469,11 +469,12 @@ impl Lights {
     }
 
     /// Area density of the points of emitting scene triangle `triangle`,
-    /// for a point at `p`.
-    pub fn pdf_area(&self, scene: &Scene, triangle: u32, p: Vec3, mis: bool) -> f32 {
+    /// for a point at `p` whose light counts from above the plane of
+    /// normal `n` only (zero: from every side; `LightTree::sample`).
+    pub fn pdf_area(&self, scene: &Scene, triangle: u32, p: Vec3, n: Vec3, mis: bool) -> f32 {
         let local = match &self.tree {
             // The emitters are in scene order.
-            Some(tree) => self.triangles.binary_search(&triangle).map_or(0.0, |k| tree.area_density(k, p)),
+            Some(tree) => self.triangles.binary_search(&triangle).map_or(0.0, |k| tree.area_density(k, p, n)),
             None => self.local_pdf_area(scene.materials[scene.triangles[triangle as usize].material as usize].emission),
         };
         (1.0 - self.distant_probability(p, mis)) * local
@@ -486,23 +487,24 @@ impl Lights {
     }
 
     /// The probability `sample` picks scene punctual light `index` for a
-    /// point at `p`.
-    pub fn punctual_probability(&self, index: usize, p: Vec3, mis: bool) -> f32 {
+    /// point at `p` of normal `n`.
+    pub fn punctual_probability(&self, index: usize, p: Vec3, n: Vec3, mis: bool) -> f32 {
         if let Some(&(_, irradiance)) = self.suns.iter().find(|&&(i, _)| i == index) {
             return self.distant_probability(p, mis) * (irradiance / self.distant_weights(mis).total);
         }
         let local = match &self.tree {
             Some(tree) => match tree.of_punctual[index] {
                 NOT_IN_TREE => 0.0,
-                item => tree.tree.probability(item as usize, p),
+                item => tree.tree.probability(item as usize, p, n),
             },
             None => self.distribution.probability(self.triangles.len() + index) as f32,
         };
         (1.0 - self.distant_probability(p, mis)) * local
     }
 
-    /// A light for a point at `p`, picked with the weights `mis` asks for.
-    pub fn sample(&self, scene: &Scene, p: Vec3, u_pick: f32, u: Vec2, mis: bool) -> Option<LightChoice> {
+    /// A light for a point at `p` of normal `n` (zero: light counts from
+    /// every side), picked with the weights `mis` asks for.
+    pub fn sample(&self, scene: &Scene, p: Vec3, n: Vec3, u_pick: f32, u: Vec2, mis: bool) -> Option<LightChoice> {
         if self.is_empty() {
             return None;
         }
@@ -533,7 +535,7 @@ impl Lights {
         // (None: by power, the same for every emitter of one radiance).
         let (pick, density) = match &self.tree {
             Some(tree) => {
-                let (item, probability, rest) = tree.tree.sample(p, u_local);
+                let (item, probability, rest) = tree.tree.sample(p, n, u_local);
                 match tree.items[item] {
                     TreeItem::Punctual(index) => {
                         let probability = local * probability;
@@ -626,9 +628,9 @@ impl Lights {
     /// The density per steradian with which `sample`, from `p`, reaches
     /// the point of emitting triangle `triangle` at distance √`dist2`,
     /// where the ray meets it with cosine `cos_light`.
-    pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, dist2: f32, cos_light: f32, mis: bool) -> f32 {
+    pub fn pdf_emitter(&self, scene: &Scene, triangle: u32, p: Vec3, n: Vec3, dist2: f32, cos_light: f32, mis: bool) -> f32 {
         let tri = &scene.triangles[triangle as usize];
-        let pdf_area = self.pdf_area(scene, triangle, p, mis);
+        let pdf_area = self.pdf_area(scene, triangle, p, n, mis);
         match close_solid_angle(p, tri, &Nearness::of(tri)) {
             Some(omega) => pdf_area * tri.area() / omega,
             None => solid_angle_density(pdf_area, dist2, cos_light),
@@ -703,8 +705,9 @@ mod tests {
     use crate::punctual::{PunctualKind, PunctualLight};
 
     /// Without the light tree, emitters are picked by power; with it, by
-    /// its probabilities. Either way the density integrates to 1 over the
-    /// emitters and `sample` picks as `pdf_area` says.
+    /// its probabilities, for a receiver's normal or none. Either way the
+    /// density integrates to 1 over the emitters and `sample` picks as
+    /// `pdf_area` says.
     #[test]
     fn emitters_are_picked_as_their_density_says_and_it_integrates_to_one() {
         let tri = |x: f32, material: u32| Triangle::new([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)], [Vec3::Z; 3], material);
@@ -715,27 +718,33 @@ mod tests {
         assert_eq!(by_power.triangles, vec![0, 1]);
         assert_eq!(by_power.tree_size(), 2);
         by_power.pick_by_power();
-        let picks = |lights: &Lights, p: Vec3| {
+        let picks = |lights: &Lights, p: Vec3, n: Vec3| {
             let mut counts = [0u32; 2];
             for k in 0..4000 {
-                let Some(LightChoice::Area(s)) = lights.sample(&scene, p, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3), true) else { panic!("no light") };
+                let Some(LightChoice::Area(s)) = lights.sample(&scene, p, n, (k as f32 + 0.5) / 4000.0, Vec2::splat(0.3), true) else { panic!("no light") };
                 counts[s.triangle as usize] += 1;
             }
             counts
         };
-        assert_eq!(picks(&by_power, Vec3::ZERO), [1000, 3000]);
+        assert_eq!(picks(&by_power, Vec3::ZERO, Vec3::ZERO), [1000, 3000]);
         let tree = Lights::new(&scene);
         for p in [Vec3::ZERO, Vec3::new(0.3, 0.3, 1.0), Vec3::new(2.5, 0.2, 0.5), Vec3::new(1.5, 0.5, -3.0)] {
-            for lights in [&by_power, &tree] {
-                // ∫ pdf_A dA over the emitters = Σ pdf_A,i A_i = 1.
-                let pdf = [0, 1].map(|t| lights.pdf_area(&scene, t, p, true) * 0.5);
-                assert!((pdf[0] + pdf[1] - 1.0).abs() < 1e-6, "{p}: {pdf:?}");
-                let counts = picks(lights, p);
-                assert!((counts[0] as f32 - 4000.0 * pdf[0]).abs() <= 2.0, "{p}: {counts:?} {pdf:?}");
+            for n in [Vec3::ZERO, Vec3::Z, -Vec3::Z, Vec3::new(1.0, 0.0, 0.3).normalize()] {
+                for lights in [&by_power, &tree] {
+                    // ∫ pdf_A dA over the emitters = Σ pdf_A,i A_i = 1.
+                    let pdf = [0, 1].map(|t| lights.pdf_area(&scene, t, p, n, true) * 0.5);
+                    assert!((pdf[0] + pdf[1] - 1.0).abs() < 1e-6, "{p} {n}: {pdf:?}");
+                    let counts = picks(lights, p, n);
+                    assert!((counts[0] as f32 - 4000.0 * pdf[0]).abs() <= 2.0, "{p} {n}: {counts:?} {pdf:?}");
+                }
             }
         }
+        // Facing away from the brighter triangle, a point leaves it all but
+        // the share its sphere's rim above the plane keeps.
+        let facing_left = Vec3::new(-1.0, 0.0, 0.2).normalize();
+        assert!(tree.pdf_area(&scene, 1, Vec3::new(1.5, 0.3, 0.5), facing_left, true) < 0.5 * tree.pdf_area(&scene, 1, Vec3::new(1.5, 0.3, 0.5), Vec3::ZERO, true));
         // Above the brighter triangle its share is higher than by power.
-        assert!(tree.pdf_area(&scene, 1, Vec3::new(2.3, 0.3, 0.5), true) * 0.5 > 0.9);
+        assert!(tree.pdf_area(&scene, 1, Vec3::new(2.3, 0.3, 0.5), Vec3::ZERO, true) * 0.5 > 0.9);
     }
 
     /// A scene pays for the tree only with two or more local lights: a
@@ -755,10 +764,10 @@ mod tests {
         let lights = Lights::new(&scene);
         assert_eq!(lights.tree_size(), 2, "a quad lamp and a bulb");
         let p = Vec3::new(0.2, 0.2, 2.0);
-        let local: f32 = [0, 1].iter().map(|&t| lights.pdf_area(&scene, t, p, true) * 0.5).sum::<f32>() + lights.punctual_probability(2, p, true);
-        let total = local + lights.punctual_probability(0, p, true) + lights.world_probability(p, true);
+        let local: f32 = [0, 1].iter().map(|&t| lights.pdf_area(&scene, t, p, Vec3::ZERO, true) * 0.5).sum::<f32>() + lights.punctual_probability(2, p, Vec3::ZERO, true);
+        let total = local + lights.punctual_probability(0, p, Vec3::ZERO, true) + lights.world_probability(p, true);
         assert!((total - 1.0).abs() < 1e-5, "{total}");
-        assert_eq!(lights.punctual_probability(1, p, true), 0.0);
+        assert_eq!(lights.punctual_probability(1, p, Vec3::ZERO, true), 0.0);
     }
 
     /// A one-sided emitter's light is estimated as a Lambertian emitter
@@ -864,9 +873,9 @@ mod tests {
         for (mis, world) in [(true, 0.0), (false, pi * 0.5 / (pi * 0.5 + 3.0))] {
             assert!((lights.world_probability(p, mis) - world).abs() < 1e-6, "{mis}");
             let n = 100_000;
-            let picked = (0..n).filter(|&k| matches!(lights.sample(&sunny, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5), mis), Some(LightChoice::World { .. }))).count();
+            let picked = (0..n).filter(|&k| matches!(lights.sample(&sunny, p, Vec3::ZERO, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5), mis), Some(LightChoice::World { .. }))).count();
             assert!((picked as f32 / n as f32 - world).abs() < 1e-4, "{mis}: {picked}");
-            assert!((lights.world_probability(p, mis) + lights.punctual_probability(0, p, mis) - 1.0).abs() < 1e-6);
+            assert!((lights.world_probability(p, mis) + lights.punctual_probability(0, p, Vec3::ZERO, mis) - 1.0).abs() < 1e-6);
         }
     }
 
@@ -885,10 +894,10 @@ mod tests {
         for p in [near, far] {
             for mis in [false, true] {
                 let n = 20_000;
-                let world = (0..n).filter(|&k| matches!(lights.sample(&scene, p, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5), mis), Some(LightChoice::World { .. }))).count();
+                let world = (0..n).filter(|&k| matches!(lights.sample(&scene, p, Vec3::ZERO, (k as f32 + 0.5) / n as f32, Vec2::splat(0.5), mis), Some(LightChoice::World { .. }))).count();
                 assert!((world as f32 / n as f32 - lights.world_probability(p, mis)).abs() < 1e-3);
                 // World share + ∫ pdf_A dA over the emitter = 1.
-                let total = lights.world_probability(p, mis) + lights.pdf_area(&scene, 0, p, mis) * 0.5;
+                let total = lights.world_probability(p, mis) + lights.pdf_area(&scene, 0, p, Vec3::ZERO, mis) * 0.5;
                 assert!((total - 1.0).abs() < 1e-5, "{total}");
             }
         }
