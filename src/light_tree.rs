@@ -175,10 +175,10 @@ impl WideNode {
     /// radius, cos the bound of `Cone::cos_bound` and cos' that of the
     /// receiver's, lane by lane and without branches, so that the compiler
     /// keeps the lanes in SIMD registers.
-    /// Every term of cos(θ − θo − θu) is carried times d, which needs no
-    /// √(d²): two square roots, independent of each other, and one
-    /// division a lane, where `cos_bound` chains four and three (the
-    /// latency of that chain was most of a pick's time).
+    /// Every term of cos(θ − θo − θu) and cos(ψ − θu) is carried times d,
+    /// which needs no √(d²): three square roots, independent of each
+    /// other, and two divisions a lane, where `cos_bound` alone chains four
+    /// and three (the latency of that chain was most of a pick's time).
     ///
     /// `n` is the receiver's normal: light that reaches `p` from below its
     /// plane counts for nothing there (an opaque surface reflects only
