@@ -96,6 +96,7 @@ impl Features {
             vertex_colors: !scene.attributes.color.is_empty(),
             ..Features::default()
         };
+        let mut smallest_roughness: Vec<Option<f32>> = vec![None; scene.images.len()];
         for (m, &count) in scene.materials.iter().zip(&used).filter(|(_, &n)| n > 0) {
             if m.is_emissive() {
                 if m.lamp {
@@ -119,7 +120,13 @@ impl Features {
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
-            f.focusing |= m.focuses_light(&scene.images);
+            // Each image scanned at most once, and none once one surface
+            // is found to focus light.
+            f.focusing = f.focusing
+                || m.focuses_light(|image| match (smallest_roughness.get_mut(image as usize), scene.images.get(image as usize)) {
+                    (Some(memo), Some(image)) => *memo.get_or_insert_with(|| image.smallest(1)),
+                    _ => 1.0,
+                });
         }
         f
     }

@@ -1,6 +1,6 @@
 //! A material as plain data: glTF pbrMetallicRoughness factors and emission.
 
-use crate::texture::{Image, TextureSlot};
+use crate::texture::TextureSlot;
 use crate::Vec3;
 
 /// What a BSDF needs of a material at one point: its factors, with any
@@ -161,14 +161,20 @@ impl Material {
     /// paths rarely do (light_paths.rs): a GGX lobe (metal or specular
     /// layer) whose roughness, its texture's smallest texel counted, is
     /// below `FOCUSING_ROUGHNESS`. Not glass, where light subpaths stop.
-    pub fn focuses_light(&self, images: &[Image]) -> bool {
+    /// `smallest_roughness_texel` gives an image's smallest G (roughness)
+    /// texel; it is asked only when the factors leave the answer open, so
+    /// that a caller can scan each image once (`Image::smallest`).
+    pub fn focuses_light(&self, smallest_roughness_texel: impl FnOnce(u32) -> f32) -> bool {
         let textures = self.textures.as_deref();
-        let smallest_roughness = match textures.and_then(|t| t.metallic_roughness.as_ref()) {
-            Some(slot) => self.roughness * images.get(slot.image as usize).map_or(1.0, |image| image.smallest(1)),
-            None => self.roughness,
-        };
         let somewhere_opaque = self.transmission <= 0.0 || textures.is_some_and(|t| t.transmission.is_some());
-        !self.lamp && (self.metallic > 0.0 || self.specular > 0.0) && smallest_roughness < FOCUSING_ROUGHNESS && somewhere_opaque
+        if self.lamp || !(self.metallic > 0.0 || self.specular > 0.0) || !somewhere_opaque {
+            return false;
+        }
+        let smallest_roughness = match textures.and_then(|t| t.metallic_roughness.as_ref()) {
+            Some(slot) if self.roughness >= FOCUSING_ROUGHNESS => self.roughness * smallest_roughness_texel(slot.image),
+            _ => self.roughness,
+        };
+        smallest_roughness < FOCUSING_ROUGHNESS
     }
 
     /// Whether some of it is glass.
@@ -199,7 +205,7 @@ impl Material {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::texture::{Sampler, Texels};
+    use crate::texture::{Image, Sampler, Texels};
 
     fn material(metallic: f32, roughness: f32, specular: f32) -> Material {
         Material { metallic, roughness, specular, ..Material::default() }
@@ -210,6 +216,12 @@ mod tests {
         vec![Image { name: "mr".into(), width: 2, height: 1, texels: Texels::Rgba8(g.map(|g| [0, g, 255, 255]).to_vec()) }]
     }
 
+    /// What `Features::of` passes: an image's smallest G texel, 1 for an
+    /// image that is not there.
+    fn smallest_in(images: &[Image]) -> impl FnOnce(u32) -> f32 + '_ {
+        |image| images.get(image as usize).map_or(1.0, |image| image.smallest(1))
+    }
+
     fn with_roughness_texture(mut m: Material) -> Material {
         let slot = TextureSlot { image: 0, sampler: Sampler::default(), texcoord: 0, transform: None };
         m.textures = Some(Box::new(MaterialTextures { metallic_roughness: Some(slot), ..Default::default() }));
@@ -218,22 +230,22 @@ mod tests {
 
     #[test]
     fn a_glossy_lobe_focuses_light_and_a_rough_or_lambertian_one_does_not() {
-        assert!(material(1.0, 0.3, 1.0).focuses_light(&[]), "gold of roughness 0.3");
-        assert!(material(0.0, 0.1, 1.0).focuses_light(&[]), "a glossy specular layer");
-        assert!(!material(1.0, 0.7, 1.0).focuses_light(&[]), "rough metal");
-        assert!(!material(0.0, 0.0, 0.0).focuses_light(&[]), "Lambert (specular 0), however smooth");
-        assert!(!Material { transmission: 1.0, ..material(0.0, 0.0, 1.0) }.focuses_light(&[]), "glass: light subpaths stop there");
-        assert!(!Material { lamp: true, ..material(1.0, 0.0, 1.0) }.focuses_light(&[]), "a lamp is not a surface");
+        assert!(material(1.0, 0.3, 1.0).focuses_light(smallest_in(&[])), "gold of roughness 0.3");
+        assert!(material(0.0, 0.1, 1.0).focuses_light(smallest_in(&[])), "a glossy specular layer");
+        assert!(!material(1.0, 0.7, 1.0).focuses_light(smallest_in(&[])), "rough metal");
+        assert!(!material(0.0, 0.0, 0.0).focuses_light(smallest_in(&[])), "Lambert (specular 0), however smooth");
+        assert!(!Material { transmission: 1.0, ..material(0.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "glass: light subpaths stop there");
+        assert!(!Material { lamp: true, ..material(1.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "a lamp is not a surface");
     }
 
     #[test]
     fn a_roughness_texture_counts_by_its_smoothest_texel() {
         let rough = with_roughness_texture(material(1.0, 1.0, 1.0));
-        assert!(rough.focuses_light(&roughness_image([64, 255])), "a texel of roughness 0.25");
-        assert!(!rough.focuses_light(&roughness_image([200, 255])), "no texel below 0.6");
+        assert!(rough.focuses_light(smallest_in(&roughness_image([64, 255]))), "a texel of roughness 0.25");
+        assert!(!rough.focuses_light(smallest_in(&roughness_image([200, 255]))), "no texel below 0.6");
         // The factor scales the texels: 0.5 × 200/255 = 0.39.
-        assert!(with_roughness_texture(material(1.0, 0.5, 1.0)).focuses_light(&roughness_image([200, 255])));
+        assert!(with_roughness_texture(material(1.0, 0.5, 1.0)).focuses_light(smallest_in(&roughness_image([200, 255]))));
         // A texture that is not there (a broken index) reads as 1.
-        assert!(!rough.focuses_light(&[]));
+        assert!(!rough.focuses_light(smallest_in(&[])));
     }
 }
