@@ -149,16 +149,18 @@ impl<'a> Context<'a> {
     /// Whether light subpaths find light here that camera paths reach
     /// only by chance, the two ways known: a glossy surface that focuses
     /// light into caustics (`Features::focusing`), or emitters whose light
-    /// first lands right beside them, in a slit or a shade
-    /// (`light_paths::trapped_share`). Elsewhere they cost time for no less
-    /// error: in the benchmark's hall (32 area lights under the ceiling, one
-    /// Lambertian grey) 20% of the time for error within ±6% at 1–16 spp;
-    /// in a Cornell box of Lambertian walls lit from a one-sided ceiling
-    /// lamp, error × time within ±15%. Where they pay, they pay severalfold:
-    /// the same box with its lamp two-sided, 1 cm under the ceiling, had
-    /// 7–10× the error × time without them.
+    /// first lands near them — the ceiling above a hanging two-sided lamp,
+    /// a slit, a shade, the floor around a glowing object —, a bright patch
+    /// light sampling does not know of (`light_paths::near_share`).
+    /// Elsewhere they cost time for no less error: in the benchmark's hall
+    /// (32 area lights under the ceiling, one Lambertian grey) 20% of the
+    /// time for error within ±6% at 1–16 spp; in a Cornell box of
+    /// Lambertian walls lit from a one-sided ceiling lamp, error × time
+    /// within ±15%. Where they pay, they pay severalfold: the same box with
+    /// its lamp two-sided had 7–10× the error × time without them with the
+    /// lamp 1 cm under the ceiling, 5× with it 30 cm under.
     pub fn light_paths_pay(&self) -> bool {
-        *self.light_paths_pay.get_or_init(|| self.features.focusing || crate::light_paths::trapped_share(self) > crate::light_paths::TRAPPED_SHARE)
+        *self.light_paths_pay.get_or_init(|| self.features.focusing || crate::light_paths::near_share(self) > crate::light_paths::NEAR_SHARE)
     }
 
     /// The closest surface a ray stops at: with alpha in the scene, a
