@@ -61,7 +61,6 @@ use crate::sampling::Frame;
 use crate::traversal_bench::RayKind;
 use crate::Vec3;
 use rayon::prelude::*;
-use std::collections::HashMap;
 use std::f32::consts::PI;
 use std::ops::Range;
 
@@ -372,8 +371,7 @@ pub(crate) fn near_share(ctx: &Context) -> f32 {
             continue;
         }
         total += power;
-        let size = sizes.get(&start.triangle).copied().unwrap_or_else(|| ctx.scene.triangles[start.triangle as usize].area().sqrt());
-        let within = NEAR_DISTANCE * size;
+        let within = NEAR_DISTANCE * sizes[start.triangle as usize];
         if ctx.intersect(start.origin, start.dir, RayKind::Bounce, &mut rng).is_some_and(|hit| hit.t < within) {
             near += power;
         }
@@ -385,46 +383,50 @@ pub(crate) fn near_share(ctx: &Context) -> f32 {
     }
 }
 
-/// For each emitting triangle, the size of the surface it belongs to:
-/// the diagonal of the box around the emitting triangles joined to it
-/// through shared corners (the same position, to the bit), so that a
-/// lamp's size does not depend on how finely it is tessellated. A corner
-/// shared with another lamp joins the two.
-fn emitter_sizes(scene: &Scene) -> HashMap<u32, f32> {
+/// For each scene triangle that emits, the size of the surface it
+/// belongs to (0 for the others): the diagonal of the box around the
+/// emitting triangles joined to it through shared corners (the same
+/// position, to the bit), so that a lamp's size does not depend on how
+/// finely it is tessellated. A corner shared with another lamp joins the
+/// two. About 0.3 µs per emitting triangle (489k in 0.16 s), against the
+/// light tree's 1.1 µs per light; computed once, and only for `auto`
+/// where no surface focuses light.
+fn emitter_sizes(scene: &Scene) -> Vec<f32> {
     let emitting: Vec<u32> = (0..scene.triangles.len() as u32).filter(|&i| scene.materials.get(scene.triangles[i as usize].material as usize).is_some_and(|m| m.is_emissive())).collect();
-    // Union–find over `emitting`, by the first triangle seen at a corner.
-    let mut parent: Vec<usize> = (0..emitting.len()).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
+    let mut corners: Vec<([u32; 3], u32)> = emitting
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(k, &t)| scene.triangles[t as usize].p().map(|p| ([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()], k as u32)))
+        .collect();
+    corners.par_sort_unstable();
+    // Union–find over `emitting`: triangles with a corner in common join.
+    let mut parent: Vec<u32> = (0..emitting.len() as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
         }
         i
     }
-    let mut first_at: HashMap<[u32; 3], usize> = HashMap::new();
-    for (k, &t) in emitting.iter().enumerate() {
-        for p in scene.triangles[t as usize].p() {
-            let other = *first_at.entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]).or_insert(k);
-            let (a, b) = (root(&mut parent, k), root(&mut parent, other));
-            parent[a] = b;
+    for pair in corners.windows(2) {
+        if pair[0].0 == pair[1].0 {
+            let (a, b) = (root(&mut parent, pair[0].1), root(&mut parent, pair[1].1));
+            parent[a as usize] = b;
         }
     }
-    let mut bounds: HashMap<usize, (Vec3, Vec3)> = HashMap::new();
+    let mut bounds = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); emitting.len()];
     for (k, &t) in emitting.iter().enumerate() {
-        let r = root(&mut parent, k);
-        let b = bounds.entry(r).or_insert((Vec3::INFINITY, Vec3::NEG_INFINITY));
+        let b = &mut bounds[root(&mut parent, k as u32) as usize];
         for p in scene.triangles[t as usize].p() {
             *b = (b.0.min(p), b.1.max(p));
         }
     }
-    emitting
-        .iter()
-        .enumerate()
-        .map(|(k, &t)| {
-            let (lo, hi) = bounds[&root(&mut parent, k)];
-            (t, (hi - lo).length())
-        })
-        .collect()
+    let mut sizes = vec![0.0; scene.triangles.len()];
+    for (k, &t) in emitting.iter().enumerate() {
+        let (lo, hi) = bounds[root(&mut parent, k as u32) as usize];
+        sizes[t as usize] = (hi - lo).length();
+    }
+    sizes
 }
 
 /// Numbers of their own for subpath j of a sample index, apart from the
