@@ -349,7 +349,7 @@ pub(crate) const NEAR_SHARE: f32 = 0.1;
 /// it out), and light subpaths land on it in proportion to its light
 /// (README, *How it renders*). Light subpaths, against none (error ×
 /// time, 256², 1–16 spp): 7–10× less in the slit of a lamp 1 cm under a
-/// ceiling, 3.6–4.6× with it 30 cm under, 4.5–5× around a glowing
+/// ceiling, 3.6–4.6× with it 30 cm under, 3.8–5.6× around a glowing
 /// sphere and 1.8–2.6× around a glowing cube resting on a floor; within
 /// ±16% under a 2 m ceiling panel in a 4 m room, which counts as near
 /// too. The Cornell box's and the hall's lamps, whose light lands metres
@@ -584,7 +584,7 @@ mod tests {
     }
 
     /// A glowing sphere resting on a floor lights the floor around its
-    /// foot (4.5–5× less error × time with light subpaths): near it for
+    /// foot (3.8–5.6× less error × time with light subpaths): near it for
     /// its size, 0.3 m across, however finely it is tessellated — its
     /// triangles are joined through their shared corners. By the size of
     /// each triangle, as before, the finer sphere's light landed far.
