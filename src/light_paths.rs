@@ -565,9 +565,9 @@ mod tests {
 
     /// The same two-sided lamp (0.5 m square, 0.71 m across) hung 30 cm
     /// under the ceiling: the light of its upper face that travels less
-    /// than 0.71 m up the 0.3 m gap is, cosine-distributed, 1 − cos²θ for
-    /// cos θ ≥ 0.3/0.71, 0.82 of the upper half, minus what leaves past
-    /// the walls: 0.42 measured. A bright patch only light subpaths find on
+    /// than 0.71 m up the 0.3 m gap, cos θ ≥ c = 0.3/0.71, is 1 − c² =
+    /// 0.82 of the upper half's (cosine-distributed), minus what leaves
+    /// past the walls: 0.42 measured. A bright patch only light subpaths find on
     /// purpose (3.6–4.6× less error × time with them); a quarter of √area
     /// of its triangles, the rule before, counted none of it.
     #[test]
