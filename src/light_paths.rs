@@ -335,6 +335,10 @@ const NEAR_RAYS: u32 = 4096;
 /// (0.71 m across) is 0.014 of it, 30 cm above it 0.42; the floor 2 m
 /// under it 2.8. See `near_share` for what it catches.
 const NEAR_DISTANCE: f32 = 1.0;
+/// Emitters at least this fraction of the scene's diagonal across light
+/// no patch: an emissive dome around the scene (18% more error × time at
+/// 16 spp with light subpaths, the same at 4) is a sky, not a lamp.
+const NEAR_LARGEST: f32 = 0.5;
 /// The share of the emitted power landing near its emitters above which
 /// light subpaths are traced (`Context::light_paths_pay`). A two-sided
 /// lamp under a ceiling sends half its power there.
@@ -352,14 +356,16 @@ pub(crate) const NEAR_SHARE: f32 = 0.1;
 /// ceiling, 3.6–4.6× with it 30 cm under, 3.8–5.6× around a glowing
 /// sphere and 1.8–2.6× around a glowing cube resting on a floor; within
 /// ±16% under a 2 m ceiling panel in a 4 m room, which counts as near
-/// too. The Cornell box's and the hall's lamps, whose light lands metres
-/// away, stay far. The rule before, a quarter of √area of the triangle
+/// too (`NEAR_LARGEST` leaves out domes around the scene). The Cornell
+/// box's and the hall's lamps, whose light lands metres away, stay far. The rule before, a quarter of √area of the triangle
 /// the light left, caught the slit alone: a finely tessellated sphere's
 /// triangles are small, however large the sphere. From rays started as
 /// light subpaths start, on numbers of their own, so it is the same for
 /// every render of a scene.
 pub(crate) fn near_share(ctx: &Context) -> f32 {
     let sizes = emitter_sizes(ctx.scene);
+    let (lo, hi) = crate::scene::bounds(&ctx.scene.triangles);
+    let largest = NEAR_LARGEST * (hi - lo).length();
     let mut rng = Rng::new(0x7472_6170_7065_6421, 0);
     let (mut near, mut total) = (0.0f64, 0.0f64);
     for _ in 0..NEAR_RAYS {
@@ -371,7 +377,8 @@ pub(crate) fn near_share(ctx: &Context) -> f32 {
             continue;
         }
         total += power;
-        let within = NEAR_DISTANCE * sizes[start.triangle as usize];
+        let size = sizes[start.triangle as usize];
+        let within = if size < largest { NEAR_DISTANCE * size } else { 0.0 };
         if ctx.intersect(start.origin, start.dir, RayKind::Bounce, &mut rng).is_some_and(|hit| hit.t < within) {
             near += power;
         }
@@ -591,32 +598,7 @@ mod tests {
     #[test]
     fn a_glowing_sphere_on_a_floor_is_near_at_any_tessellation() {
         let share = |rings: usize| {
-            let floor = [Vec3::new(-5.0, 0.0, -5.0), Vec3::new(5.0, 0.0, -5.0), Vec3::new(5.0, 0.0, 5.0), Vec3::new(-5.0, 0.0, 5.0)];
-            let mut triangles = vec![Triangle::new([floor[0], floor[2], floor[1]], [Vec3::Y; 3], 0), Triangle::new([floor[0], floor[3], floor[2]], [Vec3::Y; 3], 0)];
-            let (centre, r, segments) = (Vec3::new(0.0, 0.15, 0.0), 0.15, 2 * rings);
-            let at = |i: usize, j: usize| {
-                let (theta, phi) = (PI * i as f32 / rings as f32, 2.0 * PI * (j % segments) as f32 / segments as f32);
-                centre + r * Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin())
-            };
-            for i in 0..rings {
-                for j in 0..segments {
-                    let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-                    for [p, q, s] in [[a, b, c], [a, c, d]] {
-                        // Front faces outwards: emission is one-sided.
-                        let corners = if (q - p).cross(s - p).dot(p + q + s - 3.0 * centre) >= 0.0 { [p, q, s] } else { [p, s, q] };
-                        let t = Triangle::new(corners, [Vec3::ZERO; 3], 1);
-                        if t.area() > 0.0 {
-                            triangles.push(Triangle::new(corners, [t.cross().normalize(); 3], 1));
-                        }
-                    }
-                }
-            }
-            let materials = vec![
-                Material { metallic: 0.0, specular: 0.0, ..Material::default() },
-                Material { metallic: 0.0, specular: 0.0, emission: Vec3::ONE, ..Material::default() },
-            ];
-            let camera = crate::camera::Camera::from_world("c".into(), &glam::Mat4::from_translation(glam::Vec3::new(0.0, 1.0, 3.0)), 1.0, None).unwrap();
-            let scene = Scene::new(triangles, materials, camera);
+            let scene = floor_and_sphere(Vec3::new(0.0, 0.15, 0.0), 0.15, rings, true);
             let (ctx, _) = Context::new(&scene);
             assert!(ctx.light_paths_pay(), "{rings} rings");
             near_share(&ctx)
@@ -624,6 +606,49 @@ mod tests {
         let (coarse, fine) = (share(8), share(48));
         assert!(coarse > 0.3 && fine > 0.3, "{coarse} {fine}");
         assert!((coarse - fine).abs() < 0.05, "{coarse} {fine}");
+    }
+
+    /// An emissive dome 28 m across around a 10 m floor lands its light
+    /// within its size, but is as large as the scene: a sky, not a lamp
+    /// beside a bright patch, and it gets no light subpaths.
+    #[test]
+    fn an_emissive_dome_around_the_scene_is_no_patch() {
+        let scene = floor_and_sphere(Vec3::ZERO, 14.0, 16, false);
+        let (ctx, _) = Context::new(&scene);
+        assert!(near_share(&ctx) == 0.0);
+        assert!(!ctx.light_paths_pay());
+    }
+
+    /// A 10 m grey floor at y = 0 and an emitting sphere, its faces' front
+    /// out of it or into it.
+    fn floor_and_sphere(centre: Vec3, r: f32, rings: usize, outward: bool) -> Scene {
+        let floor = [Vec3::new(-5.0, 0.0, -5.0), Vec3::new(5.0, 0.0, -5.0), Vec3::new(5.0, 0.0, 5.0), Vec3::new(-5.0, 0.0, 5.0)];
+        let mut triangles = vec![Triangle::new([floor[0], floor[2], floor[1]], [Vec3::Y; 3], 0), Triangle::new([floor[0], floor[3], floor[2]], [Vec3::Y; 3], 0)];
+        let segments = 2 * rings;
+        let at = |i: usize, j: usize| {
+            let (theta, phi) = (PI * i as f32 / rings as f32, 2.0 * PI * (j % segments) as f32 / segments as f32);
+            centre + r * Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin())
+        };
+        for i in 0..rings {
+            for j in 0..segments {
+                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                for [p, q, s] in [[a, b, c], [a, c, d]] {
+                    // Emission is one-sided: the front faces the way asked.
+                    let out = (q - p).cross(s - p).dot(p + q + s - 3.0 * centre) >= 0.0;
+                    let corners = if out == outward { [p, q, s] } else { [p, s, q] };
+                    let t = Triangle::new(corners, [Vec3::ZERO; 3], 1);
+                    if t.area() > 0.0 {
+                        triangles.push(Triangle::new(corners, [t.cross().normalize(); 3], 1));
+                    }
+                }
+            }
+        }
+        let materials = vec![
+            Material { metallic: 0.0, specular: 0.0, ..Material::default() },
+            Material { metallic: 0.0, specular: 0.0, emission: Vec3::ONE, ..Material::default() },
+        ];
+        let camera = crate::camera::Camera::from_world("c".into(), &glam::Mat4::from_translation(glam::Vec3::new(0.0, 1.0, 3.0)), 1.0, None).unwrap();
+        Scene::new(triangles, materials, camera)
     }
 
     /// Two cache lines: the size the connections' random picks were
