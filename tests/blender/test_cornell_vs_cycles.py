@@ -50,6 +50,7 @@ def difference(cycles, glint, means, pixels):
 
 def lower_lamp(scene, metres):
     """Moves the faces of the emitting material down (Blender's −Z)."""
+    count = 0
     for obj in (o for o in scene.objects if o.type == "MESH"):
         mesh = obj.data
         lamp = {i for i, m in enumerate(mesh.materials) if m and m.name == "light"}
@@ -57,6 +58,9 @@ def lower_lamp(scene, metres):
         for v in moved:
             mesh.vertices[v].co.z -= metres
         mesh.update()
+        count += len(moved)
+    # The lamp quad's corners: else the case would quietly be the plain box.
+    assert count == 4, count
 
 
 @pytest.mark.parametrize("name", ["cornell-box-diffuse", "cornell-box", "cornell-box-diffuse-hanging"])
