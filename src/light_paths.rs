@@ -357,13 +357,14 @@ pub(crate) const NEAR_SHARE: f32 = 0.1;
 /// sphere and 1.8–2.6× around a glowing cube resting on a floor; within
 /// ±16% under a 2 m ceiling panel in a 4 m room, which counts as near
 /// too (`NEAR_LARGEST` leaves out domes around the scene). The Cornell
-/// box's and the hall's lamps, whose light lands metres away, stay far. The rule before, a quarter of √area of the triangle
-/// the light left, caught the slit alone: a finely tessellated sphere's
-/// triangles are small, however large the sphere. From rays started as
+/// box's and the hall's lamps, whose light lands metres away, stay far.
+/// The rule before, a quarter of √area of the triangle the light left,
+/// caught the slit alone: a finely tessellated sphere's triangles are
+/// small, however large the sphere. From rays started as
 /// light subpaths start, on numbers of their own, so it is the same for
 /// every render of a scene.
 pub(crate) fn near_share(ctx: &Context) -> f32 {
-    let sizes = emitter_sizes(ctx.scene);
+    let sizes = emitter_sizes(ctx.scene, &ctx.lights.triangles);
     let (lo, hi) = crate::scene::bounds(&ctx.scene.triangles);
     let largest = NEAR_LARGEST * (hi - lo).length();
     let mut rng = Rng::new(0x7472_6170_7065_6421, 0);
@@ -390,16 +391,16 @@ pub(crate) fn near_share(ctx: &Context) -> f32 {
     }
 }
 
-/// For each scene triangle that emits, the size of the surface it
-/// belongs to (0 for the others): the diagonal of the box around the
-/// emitting triangles joined to it through shared corners (the same
+/// For each of the `emitting` scene triangles (the lights' emitters, which
+/// light subpaths start from), the size of the surface it belongs to (0
+/// for the other triangles): the diagonal of the box around the emitting
+/// triangles joined to it through shared corners (the same
 /// position, to the bit), so that a lamp's size does not depend on how
 /// finely it is tessellated. A corner shared with another lamp joins the
 /// two. About 0.3 µs per emitting triangle (489k in 0.16 s), against the
 /// light tree's 1.1 µs per light; computed once, and only for `auto`
 /// where no surface focuses light.
-fn emitter_sizes(scene: &Scene) -> Vec<f32> {
-    let emitting: Vec<u32> = (0..scene.triangles.len() as u32).filter(|&i| scene.materials.get(scene.triangles[i as usize].material as usize).is_some_and(|m| m.is_emissive())).collect();
+fn emitter_sizes(scene: &Scene, emitting: &[u32]) -> Vec<f32> {
     let mut corners: Vec<([u32; 3], u32)> = emitting
         .par_iter()
         .enumerate()
@@ -574,9 +575,9 @@ mod tests {
     /// under the ceiling: the light of its upper face that travels less
     /// than 0.71 m up the 0.3 m gap, cos θ ≥ c = 0.3/0.71, is 1 − c² =
     /// 0.82 of the upper half's (cosine-distributed), minus what leaves
-    /// past the walls: 0.42 measured. A bright patch only light subpaths find on
-    /// purpose (3.6–4.6× less error × time with them); a quarter of √area
-    /// of its triangles, the rule before, counted none of it.
+    /// past the walls: 0.42 measured. A bright patch only light subpaths
+    /// find on purpose (3.6–4.6× less error × time with them); a quarter
+    /// of √area of its triangles, the rule before, counted none of it.
     #[test]
     fn light_landing_near_a_hanging_lamp_pays_for_light_paths() {
         let mut scene = diffuse_cornell_box(true);
