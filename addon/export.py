@@ -115,7 +115,8 @@ def world_background(scene):
 
 
 def area_lights(depsgraph):
-    """Every visible area light (instances included) as request records."""
+    """Every visible area light (instances included) as request records,
+    portals among them."""
     records = []
     for instance in depsgraph.object_instances:
         obj = instance.object
@@ -135,6 +136,9 @@ def area_lights(depsgraph):
                 # Unnormalised lights give power per unit area, as the exporter reads them.
                 "power": light.energy if getattr(light, "normalize", True) else light.energy * light.area(matrix_world=instance.matrix_world),
                 "visible_camera": bool(obj.visible_camera),
+                # Cycles' Light › Portal: no light of its own; Glint samples
+                # the World through it.
+                "portal": bool(getattr(getattr(light, "cycles", None), "is_portal", False)),
             }
         )
     return records

@@ -61,6 +61,8 @@ pub struct Features {
     pub lamps: usize,
     pub lamp_triangles: usize,
     pub punctual: usize,
+    /// Blender area lights marked Portal (portals.rs).
+    pub portals: usize,
     /// The World is not black: a colour, or an environment image.
     pub background: bool,
     pub environment: bool,
@@ -90,6 +92,7 @@ impl Features {
         }
         let mut f = Features {
             punctual: scene.punctual.len(),
+            portals: scene.portals.len(),
             background: scene.has_world(),
             environment: scene.environment.is_some(),
             images: scene.images.len(),
@@ -149,6 +152,9 @@ impl fmt::Display for Features {
             on.push("environment map".into());
         } else if self.background {
             on.push("background".into());
+        }
+        if self.portals > 0 {
+            on.push(format!("portals={}", self.portals));
         }
         if self.one_sided_emission {
             on.push("one-sided emission".into());

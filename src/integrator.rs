@@ -557,23 +557,70 @@ fn world_pdf(ctx: &Context, p: Vec3, ng: Vec3, dir: Vec3) -> f32 {
     if probability == 0.0 {
         return 0.0;
     }
-    probability
-        * match &ctx.scene.environment {
-            Some(map) => map.pdf(dir, true),
-            None => environment::uniform_pdf(ng, dir),
-        }
+    probability * world_direction_pdf(ctx, p, ng, dir, true)
+}
+
+/// The share of light samples of the World from `p` that go through the
+/// portals `p` faces (portals.rs): all of them for a plain-colour World;
+/// half for an environment image, whose own importance map still finds
+/// its sun through a window without a portal; none without MIS (light
+/// samples alone see the World then, and must look everywhere) or where
+/// `p` faces no portal.
+fn portal_share(ctx: &Context, p: Vec3, mis: bool) -> f32 {
+    if !mis || ctx.lights.portals.is_empty() || ctx.lights.portals.solid_angle(p) == 0.0 {
+        0.0
+    } else if ctx.scene.environment.is_some() {
+        0.5
+    } else {
+        1.0
+    }
+}
+
+/// The solid-angle density of the World's directions drawn over the whole
+/// sphere (the environment image's importance, or uniform).
+fn sphere_pdf(ctx: &Context, ng: Vec3, dir: Vec3, mis: bool) -> f32 {
+    match &ctx.scene.environment {
+        Some(map) => map.pdf(dir, mis),
+        None => environment::uniform_pdf(ng, dir),
+    }
+}
+
+/// The solid-angle density with which `world_direction` draws `dir`.
+fn world_direction_pdf(ctx: &Context, p: Vec3, ng: Vec3, dir: Vec3, mis: bool) -> f32 {
+    match portal_share(ctx, p, mis) {
+        0.0 => sphere_pdf(ctx, ng, dir, mis),
+        1.0 => ctx.lights.portals.pdf(p, dir),
+        share => share * ctx.lights.portals.pdf(p, dir) + (1.0 - share) * sphere_pdf(ctx, ng, dir, mis),
+    }
+}
+
+/// A direction toward the World from `si` and its solid-angle density:
+/// through the portals for `portal_share` of the draws, else over the
+/// sphere.
+fn world_direction(ctx: &Context, si: &SurfaceHit, u: Vec2, mis: bool) -> Option<(Vec3, f32)> {
+    let share = portal_share(ctx, si.p, mis);
+    let sphere = |u: Vec2| match &ctx.scene.environment {
+        Some(map) => map.sample(u, mis),
+        None => Some(environment::sample_uniform(si.ng, u)),
+    };
+    if share == 0.0 {
+        return sphere(u);
+    }
+    if share == 1.0 {
+        return ctx.lights.portals.sample(si.p, u);
+    }
+    let wi = if u.x < share {
+        ctx.lights.portals.sample(si.p, Vec2::new(u.x / share, u.y))?.0
+    } else {
+        sphere(Vec2::new(((u.x - share) / (1.0 - share)).min(1.0 - f32::EPSILON), u.y))?.0
+    };
+    Some((wi, world_direction_pdf(ctx, si.p, si.ng, wi, mis)))
 }
 
 /// One direction toward the World and its shadow ray.
 #[allow(clippy::too_many_arguments)]
 fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
-    let (wi, pdf) = match &ctx.scene.environment {
-        Some(map) => match map.sample(u, mis) {
-            Some(s) => s,
-            None => return Vec3::ZERO,
-        },
-        None => environment::sample_uniform(si.ng, u),
-    };
+    let Some((wi, pdf)) = world_direction(ctx, si, u, mis) else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, wi).filter(|_| pdf > 0.0) else { return Vec3::ZERO };
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     let le = ctx.scene.world_radiance(wi);

@@ -10,6 +10,7 @@
 //! on the origin, and emits towards local −Z.
 
 use crate::material::Material;
+use crate::portals::Portal;
 use crate::scene::{Scene, Triangle};
 use glam::Mat4;
 use crate::Vec3;
@@ -46,6 +47,10 @@ pub struct AreaLight {
     /// (off by default, as in Blender).
     #[serde(default)]
     pub visible_camera: bool,
+    /// Cycles' Light › Portal: the light emits nothing and guides light
+    /// sampling of the World through its shape instead (portals.rs).
+    #[serde(default)]
+    pub portal: bool,
 }
 
 /// Segments of the polygon standing in for a disk or an ellipse.
@@ -98,8 +103,9 @@ impl AreaLight {
     }
 }
 
-/// Append the lamps to the scene. A light that cannot emit (no power, no
-/// area) is left out with a warning; a malformed record is an error.
+/// Append the lamps to the scene, and the portals to its portals. A light
+/// that cannot emit (no power, no area) is left out, with a warning where
+/// it has no area; a malformed record is an error.
 pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), String> {
     for light in lights {
         let label = light.label();
@@ -117,11 +123,29 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             scene.warnings.push(format!("{label} has no area; left out"));
             continue;
         }
+        let points: Vec<Vec3> = light.outline().iter().map(|&p| m.transform_point3a(p)).collect();
+        let centre = m.transform_point3a(Vec3::ZERO);
+        let front = -Vec3::from_vec4(m.z_axis);
+        let fan: Vec<[Vec3; 3]> = match points.len() {
+            4 => vec![[points[0], points[1], points[2]], [points[0], points[2], points[3]]],
+            n => (0..n).map(|i| [centre, points[i], points[(i + 1) % n]]).collect(),
+        };
+        if light.portal {
+            // Its power and colour mean nothing to Cycles either. Its plane's
+            // normal on the −Z side (a sheared transform tilts −Z off it).
+            let normal = Vec3::from_vec4(m.x_axis).cross(Vec3::from_vec4(m.y_axis)).normalize_or_zero();
+            let inward = if normal.dot(front) < 0.0 { -normal } else { normal };
+            if inward == Vec3::ZERO {
+                scene.warnings.push(format!("{label} (a portal) has no facing; left out"));
+            } else {
+                scene.portals.push(Portal { triangles: fan, inward, origin: centre });
+            }
+            continue;
+        }
         if light.power == 0.0 || color == Vec3::ZERO {
             continue;
         }
         let radiance = color * (light.power / (PI * area));
-        let front = -Vec3::from_vec4(m.z_axis);
         let material = scene.materials.len() as u32;
         scene.materials.push(Material {
             name: label,
@@ -133,12 +157,6 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             camera_sees_lamp: light.visible_camera,
             ..Material::default()
         });
-        let points: Vec<Vec3> = light.outline().iter().map(|&p| m.transform_point3a(p)).collect();
-        let centre = m.transform_point3a(Vec3::ZERO);
-        let fan: Vec<[Vec3; 3]> = match points.len() {
-            4 => vec![[points[0], points[1], points[2]], [points[0], points[2], points[3]]],
-            n => (0..n).map(|i| [centre, points[i], points[(i + 1) % n]]).collect(),
-        };
         for mut p in fan {
             let mut normal = (p[1] - p[0]).cross(p[2] - p[0]);
             // A mirroring transform turns the winding; the front stays −Z.
@@ -161,7 +179,7 @@ mod tests {
     use crate::camera::Camera;
 
     fn light(shape: LampShape, size: [f32; 2], m: Mat4) -> AreaLight {
-        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0, visible_camera: false }
+        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0, visible_camera: false, portal: false }
     }
 
     fn empty_scene() -> Scene {
@@ -214,5 +232,30 @@ mod tests {
         add_area_lights(&mut scene, &[flat, dark]).unwrap();
         assert!(scene.triangles.is_empty());
         assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    }
+
+    /// A portal adds no lamp: its outline, facing its light's −Z (a
+    /// mirroring or sheared transform included), goes to the scene's
+    /// portals, whatever its power; one without area is left out.
+    #[test]
+    fn a_portal_is_an_outline_facing_its_minus_z_and_emits_nothing() {
+        let shear = Mat4::from_cols_array(&[1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.6, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        for (m, shape) in [(Mat4::IDENTITY, LampShape::Rectangle), (Mat4::from_scale(glam::Vec3::new(-1.0, 2.0, 1.0)), LampShape::Square), (shear, LampShape::Disk)] {
+            let mut scene = empty_scene();
+            let mut portal = light(shape, [1.0, 0.5], m);
+            portal.portal = true;
+            add_area_lights(&mut scene, &[portal]).unwrap();
+            assert!(scene.triangles.is_empty() && scene.materials.is_empty());
+            let [p] = &scene.portals[..] else { panic!("one portal") };
+            let normal = Vec3::from_vec4(m.x_axis).cross(Vec3::from_vec4(m.y_axis)).normalize();
+            assert!((p.inward.dot(normal).abs() - 1.0).abs() < 1e-6 && p.inward.dot(-Vec3::from_vec4(m.z_axis)) > 0.0, "{m}: {}", p.inward);
+            let area: f32 = p.triangles.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()).sum();
+            assert!((area - light(shape, [1.0, 0.5], m).area(&m)).abs() < 1e-5, "{m}: {area}");
+        }
+        let mut scene = empty_scene();
+        let mut flat = light(LampShape::Rectangle, [1.0, 0.0], Mat4::IDENTITY);
+        flat.portal = true;
+        add_area_lights(&mut scene, &[flat]).unwrap();
+        assert!(scene.portals.is_empty() && scene.warnings.len() == 1);
     }
 }

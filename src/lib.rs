@@ -18,6 +18,7 @@ pub mod material;
 pub mod output;
 pub mod parallelogram;
 pub mod progressive;
+pub mod portals;
 pub mod punctual;
 pub mod render;
 pub mod request;

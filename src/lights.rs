@@ -45,6 +45,7 @@ use crate::sampling::{cosine_hemisphere, uniform_triangle, Distribution1D, Frame
 use crate::shading::{self, Barycentric};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
+use crate::portals::Portals;
 use crate::light_tree::{Cone, LightTree, TreeLight};
 use crate::spherical_triangle::{self, SphericalTriangle};
 use glam::Vec2;
@@ -76,6 +77,8 @@ pub struct Lights {
     /// The local lights in a light tree where there are two or more;
     /// else `distribution` picks by power.
     tree: Option<LocalTree>,
+    /// Where the World's light comes into an interior (portals.rs).
+    pub portals: Portals,
 }
 
 /// The local lights as a light tree picks them (light_tree.rs).
@@ -401,6 +404,7 @@ impl Lights {
             suns,
             sized,
             tree,
+            portals: Portals::new(scene.portals.clone()),
         }
     }
 
@@ -429,8 +433,25 @@ impl Lights {
         self.has_world() || !self.suns.is_empty()
     }
 
-    fn distant_weights(&self, mis: bool) -> &DistantWeights {
-        if mis { &self.with_mis } else { &self.alone }
+    /// The distant lights' weights at `p`. Where `p` faces portals the
+    /// World's light comes in through them, where BSDF samples find it only
+    /// by chance, and light samples look at them (portals.rs): the World
+    /// then weighs lum(L̄)·Ω, Ω the portals' solid angle from `p`, the most
+    /// irradiance a World of that mean luminance could give through them.
+    /// Only under MIS: without it light samples alone see the World, and
+    /// they must look everywhere.
+    fn distant_weights(&self, p: Vec3, mis: bool) -> DistantWeights {
+        let weights = if mis { self.with_mis } else { self.alone };
+        if !mis || self.portals.is_empty() || !self.has_world() {
+            return weights;
+        }
+        let omega = self.portals.solid_angle(p);
+        if omega > 0.0 {
+            let world = self.world_irradiance * omega / std::f32::consts::PI;
+            DistantWeights { world, total: weights.total - weights.world + world }
+        } else {
+            weights
+        }
     }
 
     /// The probability of picking the distant group (World and suns) for a
@@ -445,7 +466,7 @@ impl Lights {
         if self.distribution.is_empty() {
             return 1.0;
         }
-        let weight = self.distant_weights(mis).total;
+        let weight = self.distant_weights(p, mis).total;
         if !(weight > 0.0) {
             return 0.0;
         }
@@ -455,8 +476,8 @@ impl Lights {
 
     /// The World's share of the distant group's picks: all of them when
     /// the World is the only light.
-    fn world_in_group(&self, mis: bool) -> f32 {
-        let DistantWeights { world, total } = *self.distant_weights(mis);
+    fn world_in_group(&self, p: Vec3, mis: bool) -> f32 {
+        let DistantWeights { world, total } = self.distant_weights(p, mis);
         if total > 0.0 { world / total } else { 1.0 }
     }
 
@@ -465,7 +486,7 @@ impl Lights {
         if !self.has_world() {
             return 0.0;
         }
-        self.distant_probability(p, mis) * self.world_in_group(mis)
+        self.distant_probability(p, mis) * self.world_in_group(p, mis)
     }
 
     /// Area density of the points of emitting scene triangle `triangle`,
@@ -490,7 +511,7 @@ impl Lights {
     /// point at `p` of normal `n`.
     pub fn punctual_probability(&self, index: usize, p: Vec3, n: Vec3, mis: bool) -> f32 {
         if let Some(&(_, irradiance)) = self.suns.iter().find(|&&(i, _)| i == index) {
-            return self.distant_probability(p, mis) * (irradiance / self.distant_weights(mis).total);
+            return self.distant_probability(p, mis) * (irradiance / self.distant_weights(p, mis).total);
         }
         let local = match &self.tree {
             Some(tree) => match tree.of_punctual[index] {
@@ -511,8 +532,8 @@ impl Lights {
         let distant = self.distant_probability(p, mis);
         if u_pick < distant {
             // Within the group by irradiance: the World, then each sun.
-            let weights = self.distant_weights(mis);
-            let world = self.world_in_group(mis);
+            let weights = self.distant_weights(p, mis);
+            let world = self.world_in_group(p, mis);
             let mut rest = u_pick / distant - world;
             if rest < 0.0 {
                 return Some(LightChoice::World { probability: distant * world });

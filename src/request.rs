@@ -10,7 +10,7 @@
 //!   "output": "render.exr", "background": [0.05, 0.05, 0.05],
 //!   "area_lights": [ { "name": "Area", "shape": "RECTANGLE",
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
-//!     "power": 100 } ],
+//!     "power": 100, "portal": false } ],
 //!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
 //!     { "name": "Sun", "angle": 0.00918 } ] }
 //! ```
@@ -165,9 +165,12 @@ mod tests {
     fn a_full_request_parses_and_bad_ones_say_why() {
         let ok = br#"{"job": "j1", "width": 64, "height": 32, "samples": 0, "time_limit": 2.5,
             "background": [0.1, 0.2, 0.3], "area_lights": [{"shape": "DISK", "size": [1, 1],
-            "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,2,0,1], "color": [1,1,1], "power": 10}]}"#;
+            "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,2,0,1], "color": [1,1,1], "power": 10},
+            {"shape": "RECTANGLE", "size": [1, 2], "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,2,0,1],
+            "color": [1,1,1], "power": 10, "portal": true}]}"#;
         let r = RenderRequest::parse(ok).unwrap();
-        assert_eq!((r.width, r.height, r.area_lights.len()), (Some(64), Some(32), 1));
+        assert_eq!((r.width, r.height, r.area_lights.len()), (Some(64), Some(32), 2));
+        assert!(!r.area_lights[0].portal && r.area_lights[1].portal);
         for (bad, why) in [
             (&br#"{"widht": 64}"#[..], "unknown field"),
             (br#"{"width": 0}"#, "width"),

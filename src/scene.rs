@@ -4,6 +4,7 @@
 use crate::camera::Camera;
 use crate::environment::EnvironmentMap;
 use crate::material::Material;
+use crate::portals::Portal;
 use crate::punctual::PunctualLight;
 use crate::texture::Image;
 use glam::{Vec2, Vec4};
@@ -87,6 +88,9 @@ pub struct Scene {
     pub environment: Option<EnvironmentMap>,
     /// Point, spot and sun lights.
     pub punctual: Vec<PunctualLight>,
+    /// Blender area lights marked Portal: where the World's light comes
+    /// into an interior (portals.rs).
+    pub portals: Vec<Portal>,
     /// One line each; the CLI prints them, the daemon logs them.
     pub warnings: Vec<String>,
     /// Bytes of buffer data the loader read or decoded: only what the
@@ -107,6 +111,7 @@ impl Scene {
             background: Vec3::ZERO,
             environment: None,
             punctual: Vec::new(),
+            portals: Vec::new(),
             warnings: Vec::new(),
             bytes_read: 0,
         }
