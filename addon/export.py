@@ -23,6 +23,7 @@ none): shape, size, world transform, colour and power, and the sizes of the
 point, spot and sun lights.
 """
 
+import math
 import os
 
 import bpy
@@ -144,6 +145,30 @@ def area_lights(depsgraph):
     return records
 
 
+def light_settings_left_out(depsgraph):
+    """One warning per light with settings Glint does not render, naming
+    them: an area light's Spread below 180°, Cast Shadow off, or rays it is
+    hidden from (Object › Visibility › Ray Visibility). Glint renders such
+    a light as if they were left at Blender's defaults."""
+    warnings = {}
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if obj.type != "LIGHT":
+            continue
+        light = obj.data
+        left_out = []
+        if light.type == "AREA" and light.spread < math.pi - 1e-4 and not getattr(getattr(light, "cycles", None), "is_portal", False):
+            left_out.append(f"Spread {math.degrees(light.spread):.0f}°")
+        if not getattr(light, "use_shadow", True):
+            left_out.append("Cast Shadow off")
+        hidden = [name for name, key in (("diffuse", "visible_diffuse"), ("glossy", "visible_glossy"), ("transmission", "visible_transmission")) if not getattr(obj, key, True)]
+        if hidden:
+            left_out.append(f"hidden from {', '.join(hidden)} rays")
+        if left_out:
+            warnings[obj.name] = f"{obj.name}: {'; '.join(left_out)} not rendered by Glint (it lights as with Blender's defaults)"
+    return [warnings[name] for name in sorted(warnings)]
+
+
 def light_sizes(depsgraph):
     """The size of every point, spot and sun light, which KHR_lights_punctual
     cannot carry: radius and Soft Falloff, or a sun's angle. Keyed by the
@@ -175,6 +200,7 @@ def render_request(depsgraph, job, width, height):
     procedural = sorted(m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES))
     if procedural:
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
+    warnings.extend(light_settings_left_out(depsgraph))
     request = {
         "job": job,
         "scene": "scene.glb",

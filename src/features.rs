@@ -242,7 +242,7 @@ impl fmt::Display for Kernel {
             parts.push("punctual");
         }
         if !self.area && !self.punctual {
-            parts.push("no light sampling");
+            parts.push("no local lights");
         }
         write!(out, "{}", parts.join(" + "))
     }
@@ -300,6 +300,6 @@ mod tests {
         assert!(f.ggx && f.metallic && !f.diffuse);
         assert_eq!((f.emitter_triangles, f.lamp_triangles, f.punctual), (0, 0, 0));
         let k = Kernel::choose(&f, &Lights::new(&s), BsdfModel::Principled, FeatureMode::Auto);
-        assert_eq!(k.to_string(), "principled + no light sampling");
+        assert_eq!(k.to_string(), "principled + no local lights");
     }
 }

@@ -425,7 +425,7 @@ fn specialised_kernels_render_the_general_kernels_image() {
     let cornell = load_bytes(glint::DEFAULT_SCENE.as_bytes(), None, "cornell", &LoadOptions::default()).unwrap();
     let cases = [
         ("closed diffuse box", closed_box(0.5, 0.5), "lambert + emitters"),
-        ("floor under a sky", sky, "lambert + no light sampling"),
+        ("floor under a sky", sky, "lambert + no local lights"),
         ("floor under a point light", point, "lambert + punctual"),
         ("metal under an area light", lamp, "principled + emitters + lamps"),
         ("Cornell box", cornell, "principled + emitters"),

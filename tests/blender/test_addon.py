@@ -99,6 +99,15 @@ def test_the_request_carries_area_lights_and_the_world(empty_scene):
     sphere.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
     _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
     assert any(w.startswith("Red: procedural textures cannot go through glTF") for w in warnings), warnings
+    assert not any(w.startswith("Panel:") for w in warnings), warnings
+    # Light settings Glint does not render are named, one warning a light.
+    bpy.data.lights["Panel"].spread = math.radians(60)
+    bpy.data.lights["Panel"].use_shadow = False
+    bpy.data.objects["Panel"].visible_glossy = False
+    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert "Panel: Spread 60°; Cast Shadow off; hidden from glossy rays not rendered by Glint (it lights as with Blender's defaults)" in warnings, warnings
+    bpy.data.lights["Panel"].spread, bpy.data.lights["Panel"].use_shadow = math.pi, True
+    bpy.data.objects["Panel"].visible_glossy = True
     bpy.ops.render.render()
     # The exported file holds what Glint renders: the image and the UVs of
     # the textured mesh, no tangents (no normal map), colours, animations
@@ -111,7 +120,7 @@ def test_the_request_carries_area_lights_and_the_world(empty_scene):
     request = json.loads(open(daemon.current().path("request.json")).read())
     assert request["background"] == pytest.approx([0.1, 0.15, 0.25])
     (panel,) = request["area_lights"]
-    assert panel["shape"] == "RECTANGLE" and panel["size"] == [2.0, 1.0] and panel["power"] == 300.0
+    assert panel["shape"] == "RECTANGLE" and panel["size"] == [2.0, 1.0] and panel["power"] == 300.0 and panel["portal"] is False
     m = np.array(panel["matrix"]).reshape(4, 4).T  # column-major
     # Blender (0, 0, 4), Z up → glTF (0, 4, 0), Y up; an unrotated light
     # shines down its −Z: glTF −Y.
