@@ -21,6 +21,7 @@ use crate::spherical_triangle::{self, SphericalTriangle};
 use crate::Vec3;
 use glam::Vec2;
 use std::cell::Cell;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// One portal: the triangles of its outline and the unit normal of the
 /// side the World's light goes to.
@@ -45,6 +46,10 @@ impl Portal {
 #[derive(Clone, Debug, Default)]
 pub struct Portals {
     list: Vec<Portal>,
+    /// Which list this is, for the views kept per thread: a number no
+    /// other list made in this process has (an address could be reused by
+    /// the next scene's list).
+    id: u64,
 }
 
 /// Portal triangles whose solid angles a `View` keeps; those after them
@@ -57,14 +62,15 @@ const KEPT: usize = 16;
 #[derive(Clone, Copy)]
 struct View {
     /// The portal list and the point (its bits) it was made for.
-    key: (usize, [u32; 3]),
+    key: (u64, [u32; 3]),
     total: f32,
     omega: [f32; KEPT],
 }
 
 impl Portals {
     pub fn new(list: Vec<Portal>) -> Self {
-        Portals { list }
+        static LISTS: AtomicU64 = AtomicU64::new(1);
+        Portals { list, id: LISTS.fetch_add(1, Ordering::Relaxed) }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -108,7 +114,7 @@ impl Portals {
             static LAST: Cell<Option<View>> = const { Cell::new(None) };
         }
         // Keyed by the list too: two scenes may render on one thread.
-        let key = (self.list.as_ptr() as usize, [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]);
+        let key = (self.id, [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]);
         LAST.with(|last| {
             if let Some(view) = last.get().filter(|v| v.key == key) {
                 return view;

@@ -4,8 +4,9 @@ on one machine.
     GLINT_EXECUTABLE=target/release/glint  VENV/bin/python tests/blender/convergence.py [--out convergence] [--size 64] [--mitsuba]
 
 For each comparison scene (the Cornell box, imported from scenes/ with
-Blender's glTF importer, a rough gold sphere under an area light, and a
-hall of 32 area lights), it:
+Blender's glTF importer, a rough gold sphere under an area light, a hall
+of 32 area lights, and a room lit by the World through a window with a
+portal in it), it:
 
 1. renders a converged reference with each renderer (--reference-spp
    samples): each renderer's noise is measured against its own converged
@@ -114,7 +115,17 @@ def lamp_hall(scene):
     add_camera(scene, (0, -1.5, 1.6), (math.radians(89.5), 0, 0), lens=31.2)  # 60° field of view
 
 
-SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall}
+def window_room(scene):
+    """An interior lit only by the World through a window: the 4 × 4 × 3 m
+    white room of test_portal_vs_cycles.py, its 1.2 × 1 m window holding a
+    Cycles portal (Glint honours it; Mitsuba 3 has none and samples the
+    World its own way)."""
+    from test_portal_vs_cycles import room_with_a_window
+
+    room_with_a_window(scene)
+
+
+SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall, "window-room": window_room}
 
 
 def setup(build, size):

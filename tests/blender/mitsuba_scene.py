@@ -15,7 +15,8 @@ What carries over, and how it differs from Cycles' reading:
 - Emission Color × Strength → an `area` emitter of that radiance on both
   faces (as Cycles' emission), Blender area lights of square/rectangle shape → a
   `rectangle` emitter of radiance colour·power/(π·A), a plain World colour
-  → `constant`.
+  → `constant`; Cycles' portals (area lights marked Portal) are left out:
+  Mitsuba 3 has none, and they give no light of their own.
 - lights hidden from the camera (Blender's default): the path integrator's
   `hide_emitters`, which hides every emitter, so only where area lights
   are the only emitters (the lamp hall; 2.2× too bright without, its
@@ -132,6 +133,8 @@ def area_lights(depsgraph):
         if obj.type != "LIGHT" or obj.data.type != "AREA":
             continue
         light = obj.data
+        if getattr(light.cycles, "is_portal", False):
+            continue
         if light.shape not in {"SQUARE", "RECTANGLE"}:
             raise ValueError(f"area light {obj.name}: only square and rectangle lights convert")
         sx = light.size
@@ -189,7 +192,7 @@ def scene_dict(scene, bounces):
     # Visibility › Camera), Mitsuba's emitters are not; its path integrator
     # can hide them only all at once, so it does where the only emitters
     # are such lights.
-    lamps = [i.object for i in depsgraph.object_instances if i.object.type == "LIGHT" and i.object.data.type == "AREA"]
+    lamps = [i.object for i in depsgraph.object_instances if i.object.type == "LIGHT" and i.object.data.type == "AREA" and not getattr(i.object.data.cycles, "is_portal", False)]
     others = "world" in d or any(d[k].emitter() is not None for k in d if k.startswith("mesh"))
     if lamps and not others and not any(lamp.visible_camera for lamp in lamps):
         d["integrator"]["hide_emitters"] = True
