@@ -138,7 +138,9 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             if inward == Vec3::ZERO {
                 scene.warnings.push(format!("{label} (a portal) has no facing; left out"));
             } else {
-                scene.portals.push(Portal { triangles: fan, inward, origin: centre });
+                // A rectangle whose edges stay perpendicular is sampled whole.
+                let rectangle = (points.len() == 4).then(|| [points[0], points[1] - points[0], points[3] - points[0]]).filter(|[_, ex, ey]| ex.dot(*ey).abs() <= 1e-4 * ex.length() * ey.length());
+                scene.portals.push(Portal { triangles: fan, rectangle, inward, origin: centre });
             }
             continue;
         }
