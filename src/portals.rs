@@ -2,20 +2,22 @@
 //! Portal), placed in the windows and doorways of an interior lit by the
 //! World. A portal emits nothing and blocks nothing; it tells light
 //! sampling where the World's light comes in. Inside a room the sky is
-//! seen only through its windows, and a direction drawn from the whole
-//! sphere (or left to BSDF sampling, as a constant World is under MIS)
-//! finds a window only by chance. Through a portal, every light sample of
+//! seen only through its windows, and a direction drawn over the
+//! hemisphere (or, beside a lamp, left to BSDF sampling, as a constant
+//! World is under MIS) finds a window only by chance. Through a portal, every light sample of
 //! the World looks at it.
 //!
 //! A point in front of a portal (on the side its light would shine to,
 //! Blender's −Z, into the room) draws a direction uniformly over the solid
-//! angle the portals cover there: a portal's triangles are picked by their
-//! solid angle and sampled as spherical triangles (spherical_triangle.rs),
-//! so the density is n/Ω, Ω the portals' total solid angle seen from the
-//! point and n the number of portal triangles the direction passes through
-//! (1 unless two portals overlap in view). Triangles under
-//! `MIN_SOLID_ANGLE` (a far, small window) are left to BSDF sampling, in
-//! the sampling and in the density alike.
+//! angle the portals cover there: each piece — a rectangular portal whole,
+//! sampled as a spherical rectangle (spherical_rectangle.rs), or a
+//! triangle of a disk's or a sheared one's outline, as a spherical
+//! triangle (spherical_triangle.rs) — is picked by its solid angle, so the
+//! density is n/Ω, Ω the portals' total solid angle seen from the point
+//! and n the number of pieces the direction passes through (1 unless two
+//! portals overlap in view). Pieces under `MIN_SOLID_ANGLE` (a far, small
+//! window) are left to BSDF sampling, in the sampling and in the density
+//! alike.
 
 use crate::spherical_rectangle::SphericalRectangle;
 use crate::spherical_triangle::{self, SphericalTriangle};
@@ -111,9 +113,9 @@ const KEPT: usize = 16;
 /// (each takes four arc sines to see).
 const KEPT_RECTANGLES: usize = 4;
 
-/// What the portals look like from one point: their total solid angle and
-/// the first `KEPT` triangles' own, 0 for one the point does not face or
-/// that is under `MIN_SOLID_ANGLE`.
+/// What the portals look like from one point: their total solid angle,
+/// the first `KEPT` pieces' own (0 for one the point does not face or
+/// that is under `MIN_SOLID_ANGLE`), and the first rectangles as seen.
 #[derive(Clone, Copy)]
 struct View {
     /// The portal list and the point (its bits) it was made for.
@@ -166,13 +168,13 @@ impl Portals {
         }
     }
 
-    /// The portals seen from `p`. A vertex asks up to eight times (the
-    /// World's pick probability and its directions' density, for the
+    /// `f` of the portals seen from `p`. A vertex asks up to eight times
+    /// (the World's pick probability and its directions' density, for the
     /// light sample and again for the MIS weight of the BSDF sample that
     /// escapes), each time from the same point: the last point's view is
     /// kept per thread. Computed afresh each time, the solid angles had
-    /// tripled the time per sample of a room lit through one window.
-    /// `f` of the view, lent where it is kept (copying it out, 300 bytes
+    /// tripled the time per sample of a room lit through one window. The
+    /// view is lent where it is kept (copying it out, 300 bytes
     /// a time, was a tenth of the render's time).
     fn with_view<R>(&self, p: Vec3, f: impl FnOnce(&View) -> R) -> R {
         thread_local! {
