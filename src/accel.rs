@@ -28,7 +28,7 @@ use std::time::Duration;
 pub const BUILD_PARAMS: BvhBuildParams = BvhBuildParams::medium_build();
 
 #[derive(Clone, Copy, Debug)]
-struct RtTriangle {
+pub(crate) struct RtTriangle {
     v0: Vec3,
     e1: Vec3,
     e2: Vec3,
@@ -37,6 +37,12 @@ struct RtTriangle {
 impl From<&Triangle> for RtTriangle {
     fn from(t: &Triangle) -> Self {
         let [v0, v1, v2] = t.p();
+        RtTriangle::from(&[v0, v1, v2])
+    }
+}
+
+impl From<&[Vec3; 3]> for RtTriangle {
+    fn from(&[v0, v1, v2]: &[Vec3; 3]) -> Self {
         RtTriangle { v0, e1: v1 - v0, e2: v2 - v0 }
     }
 }
@@ -63,7 +69,7 @@ pub struct Accel {
 
 /// Möller–Trumbore: (t, b1, b2) when the ray hits inside (tmin, tmax).
 #[inline(always)]
-fn intersect(tri: &RtTriangle, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+pub(crate) fn intersect(tri: &RtTriangle, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
     let p = d.cross(tri.e2);
     let det = tri.e1.dot(p);
     if det == 0.0 || !det.is_finite() {

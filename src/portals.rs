@@ -19,6 +19,7 @@
 //! window) are left to BSDF sampling, in the sampling and in the density
 //! alike.
 
+use crate::accel::{self, RtTriangle};
 use crate::spherical_rectangle::SphericalRectangle;
 use crate::spherical_triangle::{self, SphericalTriangle};
 use crate::Vec3;
@@ -273,21 +274,9 @@ impl Portals {
 }
 
 /// Whether the ray from `p` along `dir` passes through triangle `t`
-/// (Möller–Trumbore, either face, ahead of `p`).
+/// (either face, ahead of `p`).
 fn crosses(p: Vec3, dir: Vec3, t: &[Vec3; 3]) -> bool {
-    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
-    let q = dir.cross(e2);
-    let det = e1.dot(q);
-    if det == 0.0 || !det.is_finite() {
-        return false;
-    }
-    let inv = 1.0 / det;
-    let s = p - t[0];
-    let b1 = s.dot(q) * inv;
-    let r = s.cross(e1);
-    let b2 = dir.dot(r) * inv;
-    let dist = e2.dot(r) * inv;
-    (0.0..=1.0).contains(&b1) && b2 >= 0.0 && b1 + b2 <= 1.0 && dist > 0.0
+    accel::intersect(&RtTriangle::from(t), p, dir, 0.0, f32::INFINITY).is_some()
 }
 
 #[cfg(test)]
