@@ -237,7 +237,8 @@ pub fn offset_origin(p: Vec3, error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 const LEAST_STEP: f32 = 7.888_609e-31;
 
 /// Each coordinate of `p` one float further toward the sign of `side`'s
-/// (`next_up` / `next_down`; unchanged where it is 0), in all lanes at
+/// (`next_up` / `next_down`, but never nearer 0 than `LEAST_STEP`;
+/// unchanged where `side`'s is 0), in all lanes at
 /// once: floats' bit patterns, read as sign and magnitude, turned into
 /// integers that count ulps monotonically (±0 both 0), stepped, and turned
 /// back. The per-coordinate branches had been two thirds of this function
