@@ -114,7 +114,7 @@ pub struct Portals {
 /// portal's 64 triangles) are computed each time they are asked for.
 const KEPT: usize = 16;
 /// Rectangles a `View` keeps as seen, for the light sample drawn there
-/// (each takes four arc sines to see).
+/// (seeing one takes its four inner angles' arc cosines).
 const KEPT_RECTANGLES: usize = 4;
 
 /// What the portals look like from one point: their total solid angle,
@@ -217,7 +217,7 @@ impl Portals {
         }
     }
 
-    /// The total solid angle (sr) of the portal triangles `p` faces; 0
+    /// The total solid angle (sr) of the portal pieces `p` faces; 0
     /// where it faces none (light sampling of the World then goes on as
     /// without portals).
     pub fn solid_angle(&self, p: Vec3) -> f32 {
@@ -367,9 +367,8 @@ mod tests {
     }
 
     /// A window seen through another (the far one as two triangles): where
-    /// they overlap in view the
-    /// density counts both, so E[1{through a window} / pdf] is each one's
-    /// own solid angle.
+    /// they overlap in view the density counts both, so
+    /// E[1{through a window} / pdf] is each one's own solid angle.
     #[test]
     fn windows_overlapping_in_view_count_once_each() {
         let near = window(Vec3::ZERO);

@@ -91,8 +91,8 @@ impl SphericalRectangle {
     /// `u.x` picks the sub-rectangle's share of the solid angle along x,
     /// `u.y` the point along y. Ureña et al.'s steps folded together (the
     /// point at (xu, yv, z0) normalised is (xu·s/d, hv, z0·s/d), s =
-    /// √(1 − hv²)): three divisions and four square roots in a row where
-    /// there had been five and five.
+    /// √(1 − hv²)): three divisions and three square roots in a row where
+    /// there had been five and six.
     pub fn sample(&self, u: Vec2) -> Vec3 {
         let (sin, cos) = (u.x * self.solid_angle - self.k).sin_cos();
         // Their xu = −z0·cu/√(1 − cu²), cu = sign(fu)/√(fu² + b0²), fu =
