@@ -86,6 +86,8 @@ pub struct TreeLight {
 
 /// A leaf's child field: the high bit, then its light.
 const LEAF: u32 = 1 << 31;
+/// An f32's sign bit.
+const SIGN: u32 = 1 << 31;
 /// An unused lane's child field.
 const EMPTY: u32 = u32::MAX;
 /// Below this depth a node is split where the cost says; deeper (lights
@@ -127,7 +129,10 @@ struct WideNode {
     axis_z: [f32; WIDTH],
     cos_o: [f32; WIDTH],
     sin_o: [f32; WIDTH],
-    both_ways: [bool; WIDTH],
+    /// The bits of a lane's d·cos θ that count: all, or all but the sign
+    /// where its emitters are two-sided (|d·cos θ|). A mask rather than a
+    /// bool, which took a byte load, a compare and a blend a lane.
+    dot_bits: [u32; WIDTH],
     /// A wide node's index, LEAF | light, or EMPTY.
     child: [u32; WIDTH],
     /// Where this node hangs: `slot(parent, lane)`; u32::MAX at the root.
@@ -154,7 +159,7 @@ impl WideNode {
             axis_z: zero,
             cos_o: [-1.0; WIDTH],
             sin_o: zero,
-            both_ways: [false; WIDTH],
+            dot_bits: [u32::MAX; WIDTH],
             child: [EMPTY; WIDTH],
             parent,
         }
@@ -166,7 +171,8 @@ impl WideNode {
         self.radius[lane] = node.radius2.sqrt();
         if let Some(cone) = node.cone {
             (self.axis_x[lane], self.axis_y[lane], self.axis_z[lane]) = (cone.axis.x, cone.axis.y, cone.axis.z);
-            (self.cos_o[lane], self.sin_o[lane], self.both_ways[lane]) = (cone.cos_o, cone.sin_o, cone.both_ways);
+            (self.cos_o[lane], self.sin_o[lane]) = (cone.cos_o, cone.sin_o);
+            self.dot_bits[lane] = if cone.both_ways { !SIGN } else { u32::MAX };
         }
     }
 
@@ -199,23 +205,25 @@ impl WideNode {
             let (r, r2) = (self.radius[i], self.radius2[i]);
             // d·cos θ, d·sin θ, d·cos θu.
             let dot = self.axis_x[i] * vx + self.axis_y[i] * vy + self.axis_z[i] * vz;
-            let dot = if self.both_ways[i] { dot.abs() } else { dot };
+            let dot = f32::from_bits(dot.to_bits() & self.dot_bits[i]);
             let sin = (dist2 - dot * dot).max(0.0).sqrt();
             let cos_u = (dist2 - r2).max(0.0).sqrt();
             // d·cos φ and d·sin φ, φ = θo + θu.
             let (cos_o, sin_o) = (self.cos_o[i], self.sin_o[i]);
             let (cos_phi, sin_phi) = (cos_o * cos_u - sin_o * r, sin_o * cos_u + cos_o * r);
             // Inside the sphere or the widened cone the bound is W/d²;
-            // outside, W·cos(θ − φ)/d², d²·cos(θ − φ) ≤ d² on top.
+            // outside, W·cos(θ − φ)/d², d²·cos(θ − φ) ≤ d² on top. `inv`
+            // is 1/d² (1/r² inside the sphere, where the receiver's bound,
+            // the other user of 1/d², is 1): one division for both.
             let within = dist2 <= r2 || dot >= cos_phi;
-            let inv = 1.0 / if within { dist2.max(r2).max(f32::MIN_POSITIVE) } else { dist2 };
+            let inv = 1.0 / dist2.max(r2).max(f32::MIN_POSITIVE);
             let cos = if within { 1.0 } else { (dot * cos_phi + sin * sin_phi).max(0.0) * inv };
             // d·cos ψ and d·sin ψ; d²·cos(ψ − θu) = d cos ψ·d cos θu +
             // d sin ψ·d sin θu, and 1 where the sphere holds the normal.
             let toward = -(n.x * vx + n.y * vy + n.z * vz);
             let across = (dist2 - toward * toward).max(0.0).sqrt();
             let open = !receiver || dist2 <= r2 || toward >= cos_u;
-            let facing = if open { 1.0 } else { (toward * cos_u + across * r).max(0.0) / dist2 };
+            let facing = if open { 1.0 } else { (toward * cos_u + across * r).max(0.0) * inv };
             out[i] = self.weight[i] * cos * facing.min(1.0) * inv;
         }
         out
@@ -231,7 +239,8 @@ impl WideNode {
     fn parts(&self, p: Vec3, n: Vec3) -> ([f32; WIDTH], f32) {
         let importance = self.importances(p, n);
         let total = sum(&importance);
-        if total > 0.0 && total.is_finite() {
+        // Positive and finite (NaN fails both), in two compares.
+        if total > 0.0 && total < f32::INFINITY {
             return (importance, total);
         }
         let total = sum(&self.weight);
