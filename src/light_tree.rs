@@ -196,10 +196,10 @@ impl WideNode {
     /// bound it had without the receiver's.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into a dozen lanes
-    fn importances(&self, p: Vec3, n: Vec3) -> [f32; WIDTH] {
+    fn importances<const LANES: usize>(&self, p: Vec3, n: Vec3) -> [f32; WIDTH] {
         let mut out = [0.0; WIDTH];
         let receiver = n != Vec3::ZERO;
-        for i in 0..WIDTH {
+        for i in 0..LANES {
             let (vx, vy, vz) = (p.x - self.x[i], p.y - self.y[i], p.z - self.z[i]);
             let dist2 = vx * vx + vy * vy + vz * vz;
             let (r, r2) = (self.radius[i], self.radius2[i]);
@@ -237,7 +237,10 @@ impl WideNode {
     /// had lengthened the walk's chain of dependent operations.
     #[inline(always)]
     fn parts(&self, p: Vec3, n: Vec3) -> ([f32; WIDTH], f32) {
-        let importance = self.importances(p, n);
+        // Lanes fill from the first, so a node of four children or fewer
+        // (a hall of 32 lamps has eight) computes half the lanes; the rest
+        // are 0, as an empty lane's importance is.
+        let importance = if self.child[WIDTH / 2] == EMPTY { self.importances::<{ WIDTH / 2 }>(p, n) } else { self.importances::<WIDTH>(p, n) };
         let total = sum(&importance);
         // Positive and finite (NaN fails both), in two compares.
         if total > 0.0 && total < f32::INFINITY {
@@ -548,9 +551,12 @@ mod tests {
             let v = p - centre;
             let cos = cone.map_or(1.0, |c| c.cos_bound(v, v.length_squared(), radius2));
             let expected = 2.0 * cos / v.length_squared().max(radius2).max(f32::MIN_POSITIVE);
-            let lanes = wide.importances(p, Vec3::ZERO);
+            let lanes = wide.importances::<WIDTH>(p, Vec3::ZERO);
             assert!((lanes[3] - expected).abs() <= 1e-4 * expected + 1e-6, "case {case}: {} against {expected}", lanes[3]);
             assert!(lanes.iter().enumerate().all(|(i, &l)| i == 3 || l == 0.0), "case {case}: empty lanes {lanes:?}");
+            // Lane 3 is in the first half, which is all a node of four
+            // children or fewer computes: the same bits.
+            assert_eq!(wide.importances::<{ WIDTH / 2 }>(p, Vec3::ZERO), lanes, "case {case}");
         }
     }
 
@@ -572,7 +578,7 @@ mod tests {
             wide.set(0, &node, LEAF);
             let p = centre + Vec3::new(r(1.0), r(1.0), r(1.0)).normalize_or(Vec3::X) * [0.5, 1.01, 1.5, 4.0, 40.0][case % 5];
             let n = Vec3::new(r(1.0), r(1.0), r(1.0)).normalize_or(Vec3::Y);
-            let (with, without) = (wide.importances(p, n)[0], wide.importances(p, Vec3::ZERO)[0]);
+            let (with, without) = (wide.importances::<WIDTH>(p, n)[0], wide.importances::<WIDTH>(p, Vec3::ZERO)[0]);
             let factor = with / without;
             assert!((0.0..=1.0).contains(&factor), "case {case}: {factor}");
             let to_centre = centre - p;
