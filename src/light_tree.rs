@@ -86,6 +86,13 @@ pub struct TreeLight {
 
 /// A leaf's child field: the high bit, then its light.
 const LEAF: u32 = 1 << 31;
+/// Whether this CPU runs the walk compiled for AVX-512 (detected once,
+/// then a load).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl")
+}
 /// An f32's sign bit.
 const SIGN: u32 = 1 << 31;
 /// An unused lane's child field.
@@ -296,6 +303,30 @@ impl LightTree {
     /// index, the probability of picking it, and u rescaled within the pick
     /// to a fresh number in [0, 1).
     pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx512() {
+            // SAFETY: the CPU has AVX-512 F and VL.
+            return unsafe { self.sample_avx512(p, n, u) };
+        }
+        self.sample_on(p, n, u)
+    }
+
+    /// `sample` compiled for AVX-512, where a node's eight lanes sit in
+    /// one register and its compares write mask registers, which replace
+    /// SSE's blends: the same operations in the same order (Rust fuses no
+    /// multiply-adds), so the same bits (tested). 15% less time a pick and
+    /// 30% a probability at 1,000 lights (light_tree_cost), the lamp hall
+    /// 3–4% less time per sample (8 spp, least and median of 10 runs).
+    /// AVX alone (2a87021's notes) had not paid; the BVH's traversal
+    /// compiled for AVX-512 was 5% slower.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn sample_avx512(&self, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
+        self.sample_on(p, n, u)
+    }
+
+    #[inline(always)]
+    fn sample_on(&self, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
         let mut u = u.clamp(0.0, ONE_BELOW);
         let (mut node, mut probability) = (&self.nodes[0], 1.0f32);
         loop {
@@ -331,6 +362,23 @@ impl LightTree {
     /// The probability with which `sample` picks `light` for a point at
     /// `p` and normal `n`.
     pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx512() {
+            // SAFETY: the CPU has AVX-512 F and VL.
+            return unsafe { self.probability_avx512(light, p, n) };
+        }
+        self.probability_on(light, p, n)
+    }
+
+    /// `probability` compiled as `sample_avx512` is.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn probability_avx512(&self, light: usize, p: Vec3, n: Vec3) -> f32 {
+        self.probability_on(light, p, n)
+    }
+
+    #[inline(always)]
+    fn probability_on(&self, light: usize, p: Vec3, n: Vec3) -> f32 {
         let mut at = self.leaf_of[light] as usize;
         let mut probability = 1.0f32;
         loop {
@@ -527,6 +575,39 @@ mod tests {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 30.0 - 15.0;
                 let n = if k % 2 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
                 assert_consistent(&tree, p, n, &format!("{count} lights at {p}, normal {n}"));
+            }
+        }
+    }
+
+    /// The walk as this CPU runs it (compiled for AVX-512 where it has
+    /// it) gives the bits of the walk compiled for the baseline: images do
+    /// not depend on the machine's vector extensions.
+    #[test]
+    fn the_dispatched_walk_has_the_baseline_bits() {
+        let mut rng = Rng::new(5, 3);
+        for count in [2, 7, 32, 33, 300] {
+            let lights: Vec<TreeLight> = (0..count)
+                .map(|i| {
+                    let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 40.0 - 20.0;
+                    let w = 0.01 + 100.0 * rng.next_f32();
+                    match i % 3 {
+                        0 => point(c, w),
+                        1 => panel(c, Vec3::new(rng.next_f32() - 0.5, -1.0, rng.next_f32() - 0.5).normalize(), w),
+                        _ => TreeLight { weight: w, lo: c - Vec3::splat(0.3), hi: c + Vec3::splat(0.3), facing: Some((Vec3::X, true)) },
+                    }
+                })
+                .collect();
+            let tree = LightTree::new(&lights).unwrap();
+            for k in 0..200 {
+                let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 50.0 - 25.0;
+                let n = if k % 3 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
+                let u = rng.next_f32();
+                let (light, pick, rest) = tree.sample(p, n, u);
+                let (base_light, base_pick, base_rest) = tree.sample_on(p, n, u);
+                assert_eq!((light, pick.to_bits(), rest.to_bits()), (base_light, base_pick.to_bits(), base_rest.to_bits()), "{count} lights at {p}, normal {n}, u {u}");
+                for i in [light, k % count] {
+                    assert_eq!(tree.probability(i, p, n).to_bits(), tree.probability_on(i, p, n).to_bits(), "light {i} of {count} at {p}");
+                }
             }
         }
     }
