@@ -254,7 +254,7 @@ impl WideNode {
             return (importance, total);
         }
         let total = sum(&self.weight);
-        if total > 0.0 && total.is_finite() {
+        if total > 0.0 && total < f32::INFINITY {
             return (self.weight, total);
         }
         let used = self.child.map(|c| if c != EMPTY { 1.0 } else { 0.0 });
