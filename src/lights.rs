@@ -293,6 +293,14 @@ pub enum LightChoice {
     World { probability: f32 },
 }
 
+/// What `Lights::pick` picked: a light whose sample it is, or an emitter
+/// of the local lights (`local` their share) to draw a point on, with its
+/// area density once picked (None: by power).
+pub enum Picked {
+    Chosen(LightChoice),
+    Emitter { pick: usize, local: f32, density: Option<f32> },
+}
+
 /// A point on an emitter.
 pub struct LightSample {
     pub triangle: u32,
@@ -526,6 +534,15 @@ impl Lights {
     /// A light for a point at `p` of normal `n` (zero: light counts from
     /// every side), picked with the weights `mis` asks for.
     pub fn sample(&self, scene: &Scene, p: Vec3, n: Vec3, u_pick: f32, u: Vec2, mis: bool) -> Option<LightChoice> {
+        self.point_on(scene, p, self.pick(p, n, u_pick, mis)?, u)
+    }
+
+    /// `sample`'s first half: which light, from `u_pick` alone. Apart so
+    /// that a caller can put work of its own between the pick, whose walk
+    /// down the light tree is a chain of dependent operations, and what
+    /// waits for it.
+    #[inline(always)]
+    pub fn pick(&self, p: Vec3, n: Vec3, u_pick: f32, mis: bool) -> Option<Picked> {
         if self.is_empty() {
             return None;
         }
@@ -536,19 +553,19 @@ impl Lights {
             let world = self.world_in_group(p, mis);
             let mut rest = u_pick / distant - world;
             if rest < 0.0 {
-                return Some(LightChoice::World { probability: distant * world });
+                return Some(Picked::Chosen(LightChoice::World { probability: distant * world }));
             }
             for &(index, irradiance) in &self.suns {
                 rest -= irradiance / weights.total;
                 if rest < 0.0 {
-                    return Some(LightChoice::Punctual { index, probability: distant * (irradiance / weights.total) });
+                    return Some(Picked::Chosen(LightChoice::Punctual { index, probability: distant * (irradiance / weights.total) }));
                 }
             }
             // Rounding past the last one: it is the last one.
-            return Some(match self.suns.last() {
+            return Some(Picked::Chosen(match self.suns.last() {
                 Some(&(index, irradiance)) => LightChoice::Punctual { index, probability: distant * (irradiance / weights.total) },
                 None => LightChoice::World { probability: distant * world },
-            });
+            }));
         }
         let local = 1.0 - distant;
         let u_local = ((u_pick - distant) / local).min(1.0 - f32::EPSILON);
@@ -560,7 +577,7 @@ impl Lights {
                 match tree.items[item] {
                     TreeItem::Punctual(index) => {
                         let probability = local * probability;
-                        return (probability > 0.0).then_some(LightChoice::Punctual { index, probability });
+                        return (probability > 0.0).then_some(Picked::Chosen(LightChoice::Punctual { index, probability }));
                     }
                     // A quad's half by area.
                     TreeItem::Emitters { first, count, area } => {
@@ -573,10 +590,21 @@ impl Lights {
                 let pick = self.distribution.sample(u_local);
                 if pick >= self.triangles.len() {
                     let probability = local * self.distribution.probability(pick) as f32;
-                    return (probability > 0.0).then_some(LightChoice::Punctual { index: pick - self.triangles.len(), probability });
+                    return (probability > 0.0).then_some(Picked::Chosen(LightChoice::Punctual { index: pick - self.triangles.len(), probability }));
                 }
                 (pick, None)
             }
+        };
+        Some(Picked::Emitter { pick, local, density })
+    }
+
+    /// `sample`'s second half: a point on the emitter `picked`, or the
+    /// light picked.
+    #[inline(always)]
+    pub fn point_on(&self, scene: &Scene, p: Vec3, picked: Picked, u: Vec2) -> Option<LightChoice> {
+        let (pick, local, density) = match picked {
+            Picked::Chosen(choice) => return Some(choice),
+            Picked::Emitter { pick, local, density } => (pick, local, density),
         };
         let mut triangle = self.triangles[pick];
         let emitter = &self.emitters[pick];
