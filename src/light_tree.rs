@@ -18,8 +18,10 @@
 //!
 //! A light's probability is the product of the shares on its way down;
 //! MIS recomputes it from the leaf up (every node knows its parent).
-//! The shading point's normal is not used, so the probability of a light
-//! depends on the point alone, as `Lights` promises its callers.
+//! It depends on the point and on the receiver's normal (zero where the
+//! BSDF transmits), so every caller for a vertex passes the same normal:
+//! its light sample, the MIS density of a BSDF ray's hit from it
+//! (`Previous::light_side`) and a light subpath's reverse density at y1.
 
 use crate::Vec3;
 
