@@ -236,22 +236,29 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 // going through a pixel's samples first had every pick read
                 // from a different sample index's set. Each pixel's sum
                 // adds its samples in the same order either way.
+                // A pixel sample's numbers and camera ray are made while
+                // the sample before it is traced: they are a chain of
+                // hashes and multiplies (rng.rs) that the camera ray
+                // would otherwise wait for.
+                let camera_ray = |x: u32, y: u32, s: u32| {
+                    let pixel = y as u64 * w as u64 + x as u64;
+                    let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, pixel, s as u64);
+                    let jitter = rng.next_2d();
+                    let (o, d) = lens.ray(Vec2::new(x as f32, y as f32) + jitter);
+                    (rng, o, d)
+                };
+                let tile_pixels = tw as u32 * (y1 - y0);
+                let mut next = camera_ray(x0, y0, range.start);
                 for s in range.clone() {
                     let vertices = light_vertices.as_ref().map(|v| &v[(s - range.start) as usize]);
-                    let mut pixel_sums = sums.iter_mut();
-                    for y in y0..y1 {
-                        for x in x0..x1 {
-                            let pixel = y as u64 * w as u64 + x as u64;
-                            let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, pixel, s as u64);
-                            let jitter = rng.next_2d();
-                            let (o, d) = lens.ray(Vec2::new(x as f32, y as f32) + jitter);
-                            let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, o, d, lens.importance(d), settings, &mut rng, &mut stats.rays);
-                            let sum = pixel_sums.next().expect("a sum per pixel of the tile");
-                            if l.is_finite() {
-                                *sum += l;
-                            } else {
-                                stats.discarded += 1;
-                            }
+                    for (i, sum) in sums[..tile_pixels as usize].iter_mut().enumerate() {
+                        let (following, following_s) = if i as u32 + 1 < tile_pixels { (i as u32 + 1, s) } else { (0, s + 1) };
+                        let (mut rng, o, d) = std::mem::replace(&mut next, camera_ray(x0 + following % tw as u32, y0 + following / tw as u32, following_s));
+                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, o, d, lens.importance(d), settings, &mut rng, &mut stats.rays);
+                        if l.is_finite() {
+                            *sum += l;
+                        } else {
+                            stats.discarded += 1;
                         }
                     }
                 }
