@@ -11,6 +11,7 @@
 
 use crate::material::Material;
 use crate::portals::Portal;
+use crate::spherical_rectangle::Rectangle;
 use crate::scene::{Scene, Triangle};
 use glam::Mat4;
 use crate::Vec3;
@@ -139,7 +140,10 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
                 scene.warnings.push(format!("{label} (a portal) has no facing; left out"));
             } else {
                 // A rectangle whose edges stay perpendicular is sampled whole.
-                let rectangle = (points.len() == 4).then(|| [points[0], points[1] - points[0], points[3] - points[0]]).filter(|[_, ex, ey]| ex.dot(*ey).abs() <= 1e-4 * ex.length() * ey.length());
+                let rectangle = (points.len() == 4)
+                    .then(|| [points[0], points[1] - points[0], points[3] - points[0]])
+                    .filter(|[_, ex, ey]| ex.dot(*ey).abs() <= 1e-4 * ex.length() * ey.length())
+                    .map(|[corner, ex, ey]| Rectangle::new(corner, ex, ey));
                 scene.portals.push(Portal { triangles: fan, rectangle, inward, origin: centre });
             }
             continue;

@@ -54,14 +54,41 @@ fn angles(cos: Vec4, sin: Vec4) -> Vec4 {
     Vec4::select(near_right, a, by_sin)
 }
 
+/// A rectangle in space: a corner, its unit edge directions and their
+/// lengths, and their cross product. Made once per rectangle: seeing one
+/// from a point then starts from its frame (two square roots and two
+/// divisions fewer a vertex in a room lit through a window).
+#[derive(Clone, Copy, Debug)]
+pub struct Rectangle {
+    corner: Vec3,
+    x: Vec3,
+    y: Vec3,
+    z: Vec3,
+    lx: f32,
+    ly: f32,
+}
+
+impl Rectangle {
+    /// The rectangle with corner `corner` and perpendicular edges `ex`, `ey`.
+    pub fn new(corner: Vec3, ex: Vec3, ey: Vec3) -> Self {
+        let (lx, ly) = (ex.length(), ey.length());
+        let (x, y) = (ex / lx, ey / ly);
+        Rectangle { corner, x, y, z: x.cross(y), lx, ly }
+    }
+}
+
 impl SphericalRectangle {
     /// The rectangle with corner `corner` and perpendicular edges `ex`, `ey`
     /// seen from `p`; None where `p` lies in its plane or it covers less
     /// than `min_solid_angle`.
     pub fn new(p: Vec3, corner: Vec3, ex: Vec3, ey: Vec3, min_solid_angle: f32) -> Option<Self> {
-        let (lx, ly) = (ex.length(), ey.length());
-        let (x, y) = (ex / lx, ey / ly);
-        let mut z = x.cross(y);
+        Self::seen(p, &Rectangle::new(corner, ex, ey), min_solid_angle)
+    }
+
+    /// `rectangle` seen from `p`, as `new`.
+    #[inline]
+    pub fn seen(p: Vec3, rectangle: &Rectangle, min_solid_angle: f32) -> Option<Self> {
+        let Rectangle { corner, x, y, mut z, lx, ly } = *rectangle;
         let d = corner - p;
         let (x0, y0, mut z0) = (d.dot(x), d.dot(y), d.dot(z));
         if z0 > 0.0 {
