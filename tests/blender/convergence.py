@@ -173,9 +173,13 @@ def glint_render(executable, folder, spp, path, stats=None, seed=0):
         text=True,
     )
     lines = out.stderr.strip().splitlines()
-    # The summary line: "WxH, N spp, S s, M Mrays/s -> out.exr": rendering only.
+    # The summary line: "WxH, N spp, S s, M Mrays/s -> out.exr": rendering
+    # only; its seconds are rounded to milliseconds, a few percent of a
+    # 1-spp image, so they come from the stats line's time per sample
+    # ("time: T s per sample …", five decimals) times the samples.
     summary = next(line for line in lines if " spp, " in line and "->" in line)
-    seconds = max(float(summary.split(",")[2].split()[0]), 1e-3)
+    per_sample = next(line for line in lines if line.startswith("time: "))
+    seconds = max(float(per_sample.split()[1]) * spp, 1e-4)
     if stats is not None:
         stats["mrays"] = float(summary.split(",")[3].split()[0])
         stats["memory"] = next((line.split("peak RSS")[1].strip() for line in lines if "peak RSS" in line), "?")
