@@ -140,6 +140,8 @@ def area_lights(depsgraph):
                 # Cycles' Light › Portal: no light of its own; Glint samples
                 # the World through it.
                 "portal": bool(getattr(getattr(light, "cycles", None), "is_portal", False)),
+                # Radians, the opening of the cone the light leaves in.
+                "spread": float(getattr(light, "spread", math.pi)),
             }
         )
     return records
@@ -147,9 +149,9 @@ def area_lights(depsgraph):
 
 def light_settings_left_out(depsgraph):
     """One warning per light with settings Glint does not render, naming
-    them: an area light's Spread below 180°, Cast Shadow off, or rays it is
-    hidden from (Object › Visibility › Ray Visibility). Glint renders such
-    a light as if they were left at Blender's defaults."""
+    them: Cast Shadow off, or rays it is hidden from (Object › Visibility ›
+    Ray Visibility). Glint renders such a light as if they were left at
+    Blender's defaults."""
     warnings = {}
     for instance in depsgraph.object_instances:
         obj = instance.object
@@ -157,8 +159,6 @@ def light_settings_left_out(depsgraph):
             continue
         light = obj.data
         left_out = []
-        if light.type == "AREA" and light.spread < math.pi - 1e-4 and not getattr(getattr(light, "cycles", None), "is_portal", False):
-            left_out.append(f"Spread {math.degrees(light.spread):.0f}°")
         if not getattr(light, "use_shadow", True):
             left_out.append("Cast Shadow off")
         hidden = [name for name, key in (("diffuse", "visible_diffuse"), ("glossy", "visible_glossy"), ("transmission", "visible_transmission")) if not getattr(obj, key, True)]

@@ -805,7 +805,8 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     }
     let Some(wi_local) = toward_light(si, bsdf, wi) else { return Vec3::ZERO };
     let light_tri = &ctx.scene.triangles[ls.triangle as usize];
-    let le = shading::emission_at(ctx.scene, &ctx.scene.materials[light_tri.material as usize], ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0);
+    let light_material = &ctx.scene.materials[light_tri.material as usize];
+    let le = shading::emission_at(ctx.scene, light_material, ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0) * light_material.spread_factor(cos_light);
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     if le == Vec3::ZERO || f == Vec3::ZERO {
         return Vec3::ZERO;
@@ -986,7 +987,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             // Blender hides lights from the camera unless told otherwise.
             if (depth > 0 || material.camera_sees_lamp) && seen_kept {
                 let cos_light = tri.cross().normalize().dot(d);
-                l += beta * emission_seen(ctx, lamp.triangle, material.emitted(cos_light < 0.0), lamp.t, d, cos_light, &from, settings.mis);
+                let le = material.emitted(cos_light < 0.0) * material.spread_factor(-cos_light);
+                l += beta * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {

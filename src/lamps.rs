@@ -5,11 +5,13 @@
 //!
 //! Units follow Cycles: a light of power P watts and colour c over a
 //! world-space area A emits the radiance L = c·P / (π·A) W·sr⁻¹·m⁻² from its
-//! front face, so its whole output over the hemisphere, L·π·A, is c·P. The
+//! front face, so its whole output over the hemisphere, L·π·A, is c·P (a
+//! Spread below 180° scales L by direction and keeps that output:
+//! `material::Spread`). The
 //! light's local frame is Blender's: the shape lies in the XY plane, centred
 //! on the origin, and emits towards local −Z.
 
-use crate::material::Material;
+use crate::material::{Material, Spread, MIN_SPREAD};
 use crate::portals::Portal;
 use crate::spherical_rectangle::Rectangle;
 use crate::scene::{Scene, Triangle};
@@ -52,6 +54,14 @@ pub struct AreaLight {
     /// sampling of the World through its shape instead (portals.rs).
     #[serde(default)]
     pub portal: bool,
+    /// Blender's Spread in radians: the opening of the cone the light
+    /// leaves in (π, every way, by default; `Spread`).
+    #[serde(default = "every_way")]
+    pub spread: f32,
+}
+
+fn every_way() -> f32 {
+    PI
 }
 
 /// Segments of the polygon standing in for a disk or an ellipse.
@@ -151,6 +161,12 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
         if light.power == 0.0 || color == Vec3::ZERO {
             continue;
         }
+        if light.spread.is_nan() {
+            return Err(format!("{label} has a spread that is not a number"));
+        }
+        if light.spread < MIN_SPREAD {
+            scene.warnings.push(format!("{label}: Spread {:.2}° rendered as 1°", light.spread.to_degrees()));
+        }
         let radiance = color * (light.power / (PI * area));
         let material = scene.materials.len() as u32;
         scene.materials.push(Material {
@@ -161,6 +177,7 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             emission: radiance,
             lamp: true,
             camera_sees_lamp: light.visible_camera,
+            spread: Spread::new(light.spread),
             ..Material::default()
         });
         for mut p in fan {
@@ -185,7 +202,7 @@ mod tests {
     use crate::camera::Camera;
 
     fn light(shape: LampShape, size: [f32; 2], m: Mat4) -> AreaLight {
-        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0, visible_camera: false, portal: false }
+        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0, visible_camera: false, portal: false, spread: PI }
     }
 
     fn empty_scene() -> Scene {
@@ -238,6 +255,20 @@ mod tests {
         add_area_lights(&mut scene, &[flat, dark]).unwrap();
         assert!(scene.triangles.is_empty());
         assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    }
+
+    /// A Spread below 180° goes to the lamp's material; one below 1° is
+    /// rendered as 1°, with a warning naming the light; one that is not a
+    /// number is an error.
+    #[test]
+    fn a_spread_goes_to_the_lamp_and_a_broken_one_is_named() {
+        let mut scene = empty_scene();
+        let spread = |angle: f32| AreaLight { spread: angle, ..light(LampShape::Square, [1.0, 1.0], Mat4::IDENTITY) };
+        add_area_lights(&mut scene, &[spread(PI), spread(1.0), spread(0.0)]).unwrap();
+        let spreads: Vec<_> = scene.materials.iter().map(|m| m.spread).collect();
+        assert_eq!(spreads, vec![None, Spread::new(1.0), Spread::new(MIN_SPREAD)]);
+        assert_eq!(scene.warnings, vec!["area light 'L': Spread 0.00° rendered as 1°".to_string()]);
+        assert!(add_area_lights(&mut scene, &[spread(f32::NAN)]).unwrap_err().contains("spread"));
     }
 
     /// A portal adds no lamp: its outline, facing its light's −Z (a

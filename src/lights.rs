@@ -663,8 +663,8 @@ impl Lights {
         let m = &scene.materials[tri.material as usize];
         let b = uniform_triangle(u_point);
         let front = !m.double_sided || u_face < 0.5;
-        let le = shading::emission_at(scene, m, triangle, Barycentric::new(b.x, b.y), front);
         let local = cosine_hemisphere(u_dir);
+        let le = shading::emission_at(scene, m, triangle, Barycentric::new(b.x, b.y), front) * m.spread_factor(local.z);
         if le == Vec3::ZERO || !(local.z > 0.0) {
             return None;
         }

@@ -10,7 +10,7 @@
 //!   "output": "render.exr", "background": [0.05, 0.05, 0.05],
 //!   "area_lights": [ { "name": "Area", "shape": "RECTANGLE",
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
-//!     "power": 100, "portal": false } ],
+//!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
 //!     { "name": "Sun", "angle": 0.00918 } ] }
 //! ```

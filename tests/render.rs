@@ -245,7 +245,7 @@ fn a_world_and_a_lamp_add_up_whatever_the_world_is_picked_with() {
     );
     scene.background = Vec3::splat(sky);
     let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, h, 0.0));
-    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false };
+    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false, spread: std::f32::consts::PI };
     glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
     let l = power / (std::f32::consts::PI * std::f32::consts::PI * r * r);
     let expected = (albedo / std::f32::consts::PI * (std::f32::consts::PI * l * r * r / (r * r + h * h) + std::f32::consts::PI * sky)) as f64;
@@ -317,7 +317,7 @@ fn direct_light_only_weighs_both_strategies_at_the_last_vertex() {
     );
     scene.background = Vec3::splat(sky);
     let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, h, 0.0));
-    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false };
+    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false, spread: std::f32::consts::PI };
     glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
     // The noise of a pixel, from the difference of two seeds' images; the
     // mean over both.
@@ -420,7 +420,7 @@ fn specialised_kernels_render_the_general_kernels_image() {
     point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false });
     let mut lamp = floor(metal.clone());
     let m = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, 1.0, 0.0));
-    let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0, visible_camera: false, portal: false };
+    let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0, visible_camera: false, portal: false, spread: std::f32::consts::PI };
     glint::lamps::add_area_lights(&mut lamp, &[light]).unwrap();
     let cornell = load_bytes(glint::DEFAULT_SCENE.as_bytes(), None, "cornell", &LoadOptions::default()).unwrap();
     let cases = [
@@ -638,7 +638,7 @@ fn room_with_a_window(portal: bool) -> Scene {
         // Local X along world −Z, local Y along Y, local Z along +X: −Z,
         // where an area light shines, is into the room.
         let m = glam::Mat4::from_cols(glam::Vec4::new(0.0, 0.0, -1.0, 0.0), glam::Vec4::Y, glam::Vec4::X, glam::Vec4::new(1.0, 0.5 * (y0 + y1), 0.0, 1.0));
-        let light = AreaLight { name: "window".into(), shape: LampShape::Rectangle, size: [z1 - z0, y1 - y0], matrix: m.to_cols_array(), color: [1.0; 3], power: 1000.0, visible_camera: false, portal: true };
+        let light = AreaLight { name: "window".into(), shape: LampShape::Rectangle, size: [z1 - z0, y1 - y0], matrix: m.to_cols_array(), color: [1.0; 3], power: 1000.0, visible_camera: false, portal: true, spread: std::f32::consts::PI };
         glint::lamps::add_area_lights(&mut scene, &[light]).unwrap();
         assert_eq!(scene.portals.len(), 1);
     }

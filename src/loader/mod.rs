@@ -725,6 +725,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         double_sided: m.double_sided,
         lamp: false,
         camera_sees_lamp: false,
+        spread: None,
         multiscatter: true,
         transmission,
         ior,
