@@ -103,6 +103,34 @@ def render_seeds(scene, tmp_path, samples, bounces, seeds):
     return cycles, glint
 
 
+def tile_means(img, tile):
+    """The mean of each `tile` × `tile` tile of a (height, width, 3) image."""
+    h, w, _ = img.shape
+    return img.reshape(h // tile, tile, w // tile, tile, 3).mean(axis=(1, 3))
+
+
+def two_seeds_by_tile(scene, tmp_path, samples, bounces, tile):
+    """The scene rendered with seeds 1 and 2 by Cycles (set fair) and by
+    Glint (through the add-on): both renderers' images ((c1, c2), (g1,
+    g2)), the tile means of each one's mean image (c, g), and the standard
+    error of their difference per tile, from the spread of the two seeds
+    each side."""
+    def image(engine, seed):
+        if engine == "CYCLES":
+            fair_cycles(scene, samples, bounces, seed)
+        else:
+            scene.render.engine = "GLINT"
+            scene.glint.samples, scene.glint.max_bounces, scene.glint.seed = samples, bounces, seed
+        return render_rgb(tmp_path / f"{engine[0].lower()}{seed}.exr")
+
+    c1, c2 = image("CYCLES", 1), image("CYCLES", 2)
+    g1, g2 = image("GLINT", 1), image("GLINT", 2)
+    c, g = tile_means((c1 + c2) / 2, tile), tile_means((g1 + g2) / 2, tile)
+    n = tile * tile
+    se = np.sqrt((tile_means((c1 - c2) ** 2, tile) + tile_means((g1 - g2) ** 2, tile)) / 2 / (2 * n))
+    return (c1, c2), (g1, g2), c, g, se
+
+
 def tile_agreement(cycles, glint, tile):
     """How far apart two renderers' images are, per `tile` × `tile` tile:
     the difference of their tile means over its combined standard error

@@ -8,7 +8,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from helpers import add_camera, fair_cycles, give_principled, read_exr
+from helpers import add_camera, fair_cycles, give_principled, read_exr, two_seeds_by_tile
 
 
 def scene_with_light(scene, shape, rotation):
@@ -57,21 +57,6 @@ def test_area_light_lights_the_floor_as_in_cycles(empty_scene, tmp_path, shape, 
 SIZE, TILE, SPP = 32, 4, 128
 
 
-def render_floor(scene, engine, seed, path):
-    if engine == "CYCLES":
-        fair_cycles(scene, SPP, 0, seed)
-    else:
-        scene.render.engine = "GLINT"
-        scene.glint.samples, scene.glint.max_bounces, scene.glint.seed = SPP, 0, seed
-    bpy.ops.render.render()
-    bpy.data.images["Render Result"].save_render(str(path))
-    return read_exr(path)[..., :3].astype(np.float64)
-
-
-def tile_means(img):
-    return img.reshape(SIZE // TILE, TILE, SIZE // TILE, TILE, 3).mean(axis=(1, 3))
-
-
 @pytest.mark.parametrize(
     "spread_degrees, tilt, metallic, roughness",
     [(60, 0.0, 0.0, 1.0), (30, 0.5, 0.0, 1.0), (90, 0.3, 1.0, 0.3)],
@@ -97,11 +82,7 @@ def test_a_spread_narrows_the_light_as_in_cycles(empty_scene, tmp_path, spread_d
     scene.world = None
     scene.render.resolution_x = scene.render.resolution_y = SIZE
     scene.view_settings.view_transform = "Standard"
-    c1, c2 = (render_floor(scene, "CYCLES", s, tmp_path / f"c{s}.exr") for s in (1, 2))
-    g1, g2 = (render_floor(scene, "GLINT", s, tmp_path / f"g{s}.exr") for s in (1, 2))
-    c, g = tile_means((c1 + c2) / 2), tile_means((g1 + g2) / 2)
-    n = TILE * TILE
-    se = np.sqrt((tile_means((c1 - c2) ** 2) + tile_means((g1 - g2) ** 2)) / 2 / (2 * n))
+    _, _, c, g, se = two_seeds_by_tile(scene, tmp_path, SPP, 0, TILE)
     # Two unbiased estimates of each tile: within 5 combined standard
     # errors (the noise from two seeds each side), plus 0.5% of the tile
     # for single-precision sums and the pixels' stratified jitter over the

@@ -12,7 +12,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from helpers import add_camera, fair_cycles, give_principled, read_exr
+from helpers import add_camera, give_principled, two_seeds_by_tile
 
 SIZE, TILE = 32, 4
 SPP = 64
@@ -53,21 +53,6 @@ def add_light(scene, kind, size):
     scene.collection.objects.link(obj)
 
 
-def render(scene, engine, seed, path, bounces=0):
-    if engine == "CYCLES":
-        fair_cycles(scene, SPP, bounces, seed)
-    else:
-        scene.render.engine = engine
-        scene.glint.samples, scene.glint.max_bounces, scene.glint.seed = SPP, bounces, seed
-    bpy.ops.render.render()
-    bpy.data.images["Render Result"].save_render(str(path))
-    return read_exr(path)[..., :3].astype(np.float64)
-
-
-def tile_means(img):
-    return img.reshape(SIZE // TILE, TILE, SIZE // TILE, TILE, 3).mean(axis=(1, 3))
-
-
 SIZES = [
     ("POINT", None),
     ("SPOT", None),
@@ -91,11 +76,8 @@ def test_punctual_light_on_a_floor_matches_cycles(empty_scene, tmp_path, kind, s
 
 
 def assert_agree(scene, tmp_path, what, bounces=0):
-    c1, c2 = (render(scene, "CYCLES", s, tmp_path / f"c{s}.exr", bounces) for s in (1, 2))
-    g1, g2 = (render(scene, "GLINT", s, tmp_path / f"g{s}.exr", bounces) for s in (1, 2))
-    c, g = tile_means((c1 + c2) / 2), tile_means((g1 + g2) / 2)
+    (c1, c2), (g1, g2), c, g, se = two_seeds_by_tile(scene, tmp_path, SPP, bounces, TILE)
     n = TILE * TILE
-    se = np.sqrt((tile_means((c1 - c2) ** 2) + tile_means((g1 - g2) ** 2)) / 2 / (2 * n))
     # A punctual light is the same closed form per sample in both, so the
     # noise is small (pixel jitter across the falloff and the shadow's
     # edge); 0.2% of the tile covers single-precision arithmetic on both
