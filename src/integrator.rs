@@ -540,11 +540,14 @@ pub(crate) fn connects_from(surface: &Surface) -> bool {
 /// at a camera vertex: the subpath density p_y0 of the emitter, times
 /// `connect` (`Chain::toward`) and the cosine toward the light, where the
 /// light and the previous vertex are on the same side of it (a connection
-/// reflects, never transmits).
+/// reflects, never transmits); and times the density of the subpath's
+/// first direction over a cosine's at `cos_out`, the emitter's cosine
+/// toward the vertex (1 but for a lamp with a Spread).
 #[inline]
-fn connection_density(ctx: &Context, connect: f32, emitter: u32, cos_to_light: f32) -> f32 {
+fn connection_density(ctx: &Context, connect: f32, emitter: u32, cos_to_light: f32, cos_out: f32) -> f32 {
     if connect > 0.0 && cos_to_light > 0.0 {
-        ctx.lights.emission_density(&ctx.scene.materials[ctx.scene.triangles[emitter as usize].material as usize]) * connect * cos_to_light
+        let m = &ctx.scene.materials[ctx.scene.triangles[emitter as usize].material as usize];
+        ctx.lights.emission_density(m) * connect * cos_to_light * m.emission_direction_weight(cos_out)
     } else {
         0.0
     }
@@ -815,7 +818,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     if !unblocked(ctx, si, wi, ls.point, light_error, ls.normal, ls.triangle, rng, rays) {
         return Vec3::ZERO;
     }
-    let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, chain.toward(wi_local), ls.triangle, wi.dot(si.ng))) } else { 1.0 };
+    let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, chain.toward(wi_local), ls.triangle, wi.dot(si.ng), cos_light)) } else { 1.0 };
     le * f * (weight * wi_local.z.abs() / pdf)
 }
 
@@ -826,8 +829,8 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
     if le == Vec3::ZERO {
         return le;
     }
-    let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng));
-    le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, from.light_side, t * t, cos_light, mis), q)
+    let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng), -cos_light);
+    le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, from.light_side, from.p + d * t, t * t, cos_light, mis), q)
 }
 
 /// Light vertex `v`'s light, reaching camera vertex `si` (BSDF `bsdf`,

@@ -26,6 +26,7 @@ pub mod rng;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
+pub mod softbox;
 pub mod spherical_rectangle;
 pub mod spherical_triangle;
 pub mod strategies;

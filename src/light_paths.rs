@@ -458,7 +458,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
     // Light subpaths are traced only with MIS (Context::traces_light_paths).
     // As a camera vertex's light sample would pick it here: si.ng faces
     // the light, and a vertex that transmits ends the subpath below.
-    let light_pdf = ctx.lights.pdf_emitter(ctx.scene, start.triangle, si.p, si.ng, hit.t * hit.t, start.normal.dot(start.dir), true);
+    let light_pdf = ctx.lights.pdf_emitter(ctx.scene, start.triangle, si.p, si.ng, start.origin, hit.t * hit.t, start.normal.dot(start.dir), true);
     let alpha = start.le * (PI / start.density);
     if !(alpha.is_finite() && light_pdf > 0.0 && light_pdf.is_finite() && cos_in > 0.0) {
         return;

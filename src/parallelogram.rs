@@ -10,6 +10,7 @@
 //! highlight, direct light came out with half the error (lights.rs).
 
 use crate::scene::Triangle;
+use crate::Vec3;
 use glam::Vec2;
 
 /// One half of a pair: which of its vertices is the apex (role 0) and which
@@ -59,6 +60,15 @@ impl Parallelogram {
         if self.halves[0].triangle == triangle { self.halves[1].triangle } else { self.halves[0].triangle }
     }
 
+    /// The corner where `sample`'s parameters are 0 and the edges along
+    /// which they run, from the scene's `triangles`.
+    pub fn frame(&self, triangles: &[Triangle]) -> (Vec3, Vec3, Vec3) {
+        let half = &self.halves[0];
+        let p = triangles[half.triangle as usize].p();
+        let at = |role: u8| p[half.roles.iter().position(|&r| r == role).unwrap_or(0)];
+        (at(0), at(1) - at(0), at(2) - at(0))
+    }
+
     /// A uniform point: the scene triangle it lies in and its barycentrics
     /// (b1, b2) there. u.x + u.y ≤ 1 is the first triangle's half; the
     /// rest is the second's, reached from the far corner with
@@ -75,7 +85,6 @@ impl Parallelogram {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Vec3;
 
     fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
         Triangle::new([a, b, c], [Vec3::Z; 3], 0)
@@ -83,8 +92,8 @@ mod tests {
 
     /// Samples land where one affine map of the unit square onto the quad
     /// puts them (so they are uniform over it), in the triangle they name;
-    /// the map's corners are the quad's; the two halves get the share of
-    /// their area; whatever the vertex order of each triangle.
+    /// the map's corners are the quad's (and `frame`'s); the two halves get
+    /// the share of their area; whatever the vertex order of each triangle.
     #[test]
     fn samples_are_uniform_over_the_quad_in_either_vertex_order() {
         let (p0, p1, p2, p3) = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 1.0), Vec3::new(2.5, 1.0, 1.0), Vec3::new(0.5, 1.0, 1.0));
@@ -103,6 +112,10 @@ mod tests {
                 p0 * (1.0 - bary.x - bary.y) + p1 * bary.x + p2 * bary.y
             };
             let (origin, x, y) = (point(Vec2::ZERO), point(Vec2::X), point(Vec2::Y));
+            let mut triangles = vec![a.clone(); 10];
+            triangles[9] = b.clone();
+            let (corner, e1, e2) = quad.frame(&triangles);
+            assert!((corner - origin).length() < 1e-6 && (e1 - (x - origin)).length() < 1e-6 && (e2 - (y - origin)).length() < 1e-6, "{corner} {e1} {e2}");
             let corners = [origin, x, y, point(Vec2::ONE)];
             for q in [p0, p1, p2, p3] {
                 assert!(corners.iter().any(|c| (*c - q).length() < 1e-6), "corner {q} not among {corners:?}");

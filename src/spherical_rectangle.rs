@@ -72,7 +72,12 @@ impl Rectangle {
     /// The rectangle with corner `corner` and perpendicular edges `ex`, `ey`.
     pub fn new(corner: Vec3, ex: Vec3, ey: Vec3) -> Self {
         let (lx, ly) = (ex.length(), ey.length());
-        let (x, y) = (ex / lx, ey / ly);
+        Self::framed(corner, ex / lx, ey / ly, lx, ly)
+    }
+
+    /// The rectangle with corner `corner`, perpendicular unit edge
+    /// directions `x` and `y`, and edge lengths `lx` and `ly`.
+    pub fn framed(corner: Vec3, x: Vec3, y: Vec3, lx: f32, ly: f32) -> Self {
         Rectangle { corner, x, y, z: x.cross(y), lx, ly }
     }
 }

@@ -472,6 +472,27 @@ fn light_paths_keep_the_image_and_lower_the_noise_of_a_lamp_under_a_ceiling() {
     }
 }
 
+/// A softbox (a 1 × 0.6 m area light with a 30° Spread) under the ceiling
+/// of a closed box: its light subpaths leave within the grid's cone
+/// (`Spread::emission_direction`), and their connections and the light
+/// they trace to the camera, weighed with that cone's density, must leave
+/// the image's expectation where camera paths alone put it, and lower its
+/// noise: the patch the lamp lights on the floor lights the rest of the
+/// box, light that camera paths find by chance.
+#[test]
+fn light_paths_keep_the_image_of_a_softbox_and_lower_its_noise() {
+    use glint::lamps::{add_area_lights, AreaLight, LampShape};
+    let mut scene = closed_box(0.6, 0.0);
+    let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.1, 0.9, -0.2));
+    let lamp = AreaLight { name: "Softbox".into(), shape: LampShape::Rectangle, size: [1.0, 0.6], matrix: matrix.to_cols_array(), color: [1.0; 3], power: 40.0, visible_camera: false, portal: false, spread: 30f32.to_radians() };
+    add_area_lights(&mut scene, &[lamp]).unwrap();
+    let scene = Scene::new(scene.triangles, scene.materials, scene.camera);
+    let with = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(24, 24, 64, 6, 0) };
+    let without = RenderSettings { light_paths: LightPaths::Off, ..with.clone() };
+    let (v_on, v_off) = same_image_less_noise(&scene, &with, &without, "a softbox's light paths");
+    assert!(v_on < 0.8 * v_off, "light paths {v_on} vs without {v_off}");
+}
+
 /// Renders `scene` twice each `with` and `without` a strategy (seeds 1–4),
 /// asserts that the strategy leaves the image's expectation where it was,
 /// and returns the variance per pixel with and without it.

@@ -66,9 +66,9 @@ def test_a_spread_narrows_the_light_as_in_cycles(empty_scene, tmp_path, spread_d
     (tan h − tan θ)/(tan h − h), h half the spread) on a floor seen from
     above, lit directly: the bright patch under the lamp and the dark
     beyond its cone, tile by tile; on a glossy metal floor the lamp is also
-    seen by BSDF rays, MIS-weighted against its light samples. Cycles draws
-    its light samples only from the part of the lamp a point sees through
-    the grid, Glint over the whole lamp: the same irradiance, more noise."""
+    seen by BSDF rays, MIS-weighted against its light samples. Both draw
+    light samples only from the part of the lamp a point sees through the
+    grid."""
     scene = empty_scene
     bpy.ops.mesh.primitive_plane_add(size=100)
     give_principled(bpy.context.object, "Floor", Base_Color=(0.5, 0.5, 0.5, 1), Metallic=metallic, Roughness=roughness, Specular_IOR_Level=0.0)
