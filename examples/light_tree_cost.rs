@@ -24,7 +24,7 @@ fn main() -> anyhow::Result<()> {
             .map(|_| {
                 let c = point(100.0);
                 let n = point(2.0).normalize_or(Vec3::Y);
-                TreeLight { weight: 1.0 + 99.0 * point(1.0).x.abs(), lo: c - Vec3::splat(0.1), hi: c + Vec3::splat(0.1), facing: Some((n, false)) }
+                TreeLight { weight: 1.0 + 99.0 * point(1.0).x.abs(), lo: c - Vec3::splat(0.1), hi: c + Vec3::splat(0.1), facing: Some((n, false)), cos_spread: 0.0 }
             })
             .collect();
         let start = Instant::now();

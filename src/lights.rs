@@ -125,7 +125,8 @@ impl LocalTree {
             }
             of_emitter[k..k + count].fill(items.len() as u32);
             let weight = powers[k..k + count].iter().sum::<f64>() as f32;
-            lights.push(TreeLight { weight, lo, hi, facing: Some((records[k].normal, double_sided(scene, triangles[k]))) });
+            let cos_spread = scene.materials[scene.triangles[triangles[k] as usize].material as usize].spread.map_or(0.0, |s| s.cos_half());
+            lights.push(TreeLight { weight, lo, hi, facing: Some((records[k].normal, double_sided(scene, triangles[k]))), cos_spread });
             items.push(TreeItem::Emitters { first: k, count, area: records[k..k + count].iter().map(|e| e.area).sum() });
             k += count;
         }
@@ -136,7 +137,7 @@ impl LocalTree {
                 of_punctual[index] = items.len() as u32;
                 // π·I bounds its irradiance as π·A·Le does an emitter's.
                 let weight = std::f32::consts::PI * luminance(light.intensity);
-                lights.push(TreeLight { weight, lo: light.position - Vec3::splat(light.size), hi: light.position + Vec3::splat(light.size), facing: None });
+                lights.push(TreeLight { weight, lo: light.position - Vec3::splat(light.size), hi: light.position + Vec3::splat(light.size), facing: None, cos_spread: 0.0 });
                 items.push(TreeItem::Punctual(index));
             }
         }

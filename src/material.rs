@@ -262,6 +262,11 @@ impl Spread {
         self.tan_half
     }
 
+    /// cos h.
+    pub fn cos_half(&self) -> f32 {
+        1.0 / (1.0 + self.tan_half * self.tan_half).sqrt()
+    }
+
     /// A direction for light leaving the lamp (local to its face, z the
     /// normal), from `u` in [0, 1)²: cosine-weighted within the cone, the
     /// density cos θ/(π sin² h), where a light subpath started Lambertian
