@@ -126,6 +126,85 @@ impl Clip {
     }
 }
 
+/// A disk or ellipse lamp with a Spread, a fan of `segments` triangles
+/// about its centre whose rim points lie at (ax·cos φ, ay·sin φ) along its
+/// unit axes x and y, φ = 2πi/segments (lamps.rs). Its light reaching a
+/// point comes from within a circle of radius d·tan h about the point's
+/// foot; where that circle is smaller than the lamp, Cycles draws the
+/// samples from it (uniformly by area, those that land beyond the rim
+/// lost), and so does Glint; else over the whole lamp.
+#[derive(Clone, Copy, Debug)]
+pub struct RoundSoftbox {
+    centre: Vec3,
+    x: Vec3,
+    y: Vec3,
+    normal: Vec3,
+    ax: f32,
+    ay: f32,
+    tan_half: f32,
+    segments: usize,
+    /// The fan's area (m²).
+    pub area: f32,
+}
+
+/// Where a round softbox's light samples come from, seen from a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reach {
+    /// The point is behind the lamp: no light reaches it.
+    Behind,
+    /// The circle of the lamp's plane about `foot` of radius `radius`,
+    /// smaller than the lamp.
+    Circle { foot: Vec3, radius: f32 },
+    /// The whole lamp, as a lamp without a Spread.
+    Whole,
+}
+
+impl RoundSoftbox {
+    /// The lamp with centre `centre` whose first rim point (φ = 0) is
+    /// `rim_x` and whose rim point a quarter turn on is `rim_y`; None where
+    /// those are not perpendicular (a sheared lamp, drawn as without a
+    /// Spread) or the segments do not make quarter turns.
+    pub fn new(centre: Vec3, rim_x: Vec3, rim_y: Vec3, normal: Vec3, tan_half: f32, segments: usize, area: f32) -> Option<Self> {
+        let (ex, ey) = (rim_x - centre, rim_y - centre);
+        let (ax, ay) = (ex.length(), ey.length());
+        if !(ax > 0.0 && ay > 0.0 && tan_half > 0.0 && tan_half.is_finite() && area > 0.0 && segments % 4 == 0 && segments > 0) {
+            return None;
+        }
+        let (x, y) = (ex / ax, ey / ay);
+        (x.dot(y).abs() < 1e-4 && normal.is_finite()).then_some(RoundSoftbox { centre, x, y, normal, ax, ay, tan_half, segments, area })
+    }
+
+    /// Where the light samples for a point at `p` come from.
+    #[inline]
+    pub fn reach(&self, p: Vec3) -> Reach {
+        let v = p - self.centre;
+        let height = v.dot(self.normal);
+        if !(height > 0.0) {
+            return Reach::Behind;
+        }
+        let radius = height * self.tan_half;
+        if std::f32::consts::PI * radius * radius >= self.area {
+            return Reach::Whole;
+        }
+        Reach::Circle { foot: p - self.normal * height, radius }
+    }
+
+    /// The fan segment (0 to `segments` − 1) whose angle holds `point` of
+    /// the lamp's plane.
+    pub fn segment(&self, point: Vec3) -> usize {
+        let v = point - self.centre;
+        let turn = (v.dot(self.y) / self.ay).atan2(v.dot(self.x) / self.ax).rem_euclid(std::f32::consts::TAU);
+        ((turn * (self.segments as f32 / std::f32::consts::TAU)) as usize).min(self.segments - 1)
+    }
+
+    /// A point of the circle of radius `radius` about `foot`, uniform by
+    /// area, from `u` in [0, 1)².
+    pub fn in_circle(&self, foot: Vec3, radius: f32, u: Vec2) -> Vec3 {
+        let d = crate::sampling::concentric_disk(u) * radius;
+        foot + self.x * d.x + self.y * d.y
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -58,22 +58,22 @@ SIZE, TILE, SPP = 32, 4, 128
 
 
 @pytest.mark.parametrize(
-    "spread_degrees, tilt, metallic, roughness",
-    [(60, 0.0, 0.0, 1.0), (30, 0.5, 0.0, 1.0), (90, 0.3, 1.0, 0.3)],
+    "spread_degrees, tilt, metallic, roughness, shape",
+    [(60, 0.0, 0.0, 1.0, "RECTANGLE"), (30, 0.5, 0.0, 1.0, "RECTANGLE"), (90, 0.3, 1.0, 0.3, "RECTANGLE"), (40, 0.3, 0.0, 1.0, "ELLIPSE")],
 )
-def test_a_spread_narrows_the_light_as_in_cycles(empty_scene, tmp_path, spread_degrees, tilt, metallic, roughness):
+def test_a_spread_narrows_the_light_as_in_cycles(empty_scene, tmp_path, spread_degrees, tilt, metallic, roughness, shape):
     """An area light's Spread (a softbox grid: Cycles' attenuation
     (tan h − tan θ)/(tan h − h), h half the spread) on a floor seen from
     above, lit directly: the bright patch under the lamp and the dark
     beyond its cone, tile by tile; on a glossy metal floor the lamp is also
-    seen by BSDF rays, MIS-weighted against its light samples. Both draw
-    light samples only from the part of the lamp a point sees through the
-    grid."""
+    seen by BSDF rays, MIS-weighted against its light samples; an ellipse
+    lamp too. Both draw light samples only from the part of the lamp a
+    point sees through the grid."""
     scene = empty_scene
     bpy.ops.mesh.primitive_plane_add(size=100)
     give_principled(bpy.context.object, "Floor", Base_Color=(0.5, 0.5, 0.5, 1), Metallic=metallic, Roughness=roughness, Specular_IOR_Level=0.0)
     light = bpy.data.lights.new("Softbox", "AREA")
-    light.shape, light.size, light.size_y, light.energy = "RECTANGLE", 1.0, 0.6, 200.0
+    light.shape, light.size, light.size_y, light.energy = shape, 1.0, 0.6, 200.0
     light.spread = math.radians(spread_degrees)
     lamp = bpy.data.objects.new("Softbox", light)
     lamp.location, lamp.rotation_euler = (0.3, -0.2, 1.5), (tilt, 0.0, 0.4)
@@ -92,7 +92,7 @@ def test_a_spread_narrows_the_light_as_in_cycles(empty_scene, tmp_path, spread_d
     # not measure their noise (0.0004 against 0 in a tile where the
     # brightest holds 20).
     tol = 5 * se + 5e-3 * c + 1e-3 * c.max()
-    print(f"spread {spread_degrees}°: mean Glint/Cycles − 1 = {g.sum() / c.sum() - 1:+.4%}, worst tile {np.max(np.abs(g - c) / np.maximum(tol, 1e-12)):.2f} of tolerance")
+    print(f"spread {spread_degrees}° ({shape.lower()}): mean Glint/Cycles − 1 = {g.sum() / c.sum() - 1:+.4%}, worst tile {np.max(np.abs(g - c) / np.maximum(tol, 1e-12)):.2f} of tolerance")
     assert c.max() > 0.05
     # The cone leaves some of the floor in view unlit: a lamp without a
     # Spread lights every tile.
