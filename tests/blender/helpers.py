@@ -137,8 +137,7 @@ def tile_agreement(cycles, glint, tile):
     (the noise estimated from the spread of the images each side, at least
     two), and Glint's relative bias over the whole image per channel."""
     def tiles(img):
-        h, w, _ = img.shape
-        return img.reshape(h // tile, tile, w // tile, tile, 3).mean(axis=(1, 3))
+        return tile_means(img, tile)
 
     def var(images):
         return tiles(np.var(np.stack(images), axis=0, ddof=1)) / (len(images) * tile * tile)
