@@ -609,6 +609,27 @@ mod tests {
         assert!((coarse - fine).abs() < 0.05, "{coarse} {fine}");
     }
 
+    /// A 0.6 m lamp 3 m over a matte floor lands its light far from it,
+    /// and goes without light subpaths; with a Spread (here 150°) its grid
+    /// throws the light onto a patch they find, and they are traced.
+    #[test]
+    fn a_lamp_with_a_spread_pays_for_light_paths() {
+        use crate::lamps::{add_area_lights, AreaLight, LampShape};
+        let lamp = |spread: f32| {
+            // The floor alone.
+            let mut scene = floor_and_sphere(Vec3::ZERO, 0.1, 4, false);
+            scene.triangles.truncate(2);
+            let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, 3.0, 0.0));
+            add_area_lights(&mut scene, &[AreaLight { name: "L".into(), shape: LampShape::Square, size: [0.6, 0.6], matrix: matrix.to_cols_array(), color: [1.0; 3], power: 100.0, visible_camera: false, portal: false, spread }]).unwrap();
+            let scene = Scene::new(scene.triangles, scene.materials, scene.camera);
+            let (ctx, _) = Context::new(&scene);
+            assert!(!ctx.features.focusing && near_share(&ctx) < NEAR_SHARE, "{spread}");
+            ctx.light_paths_pay()
+        };
+        assert!(!lamp(PI));
+        assert!(lamp(150f32.to_radians()));
+    }
+
     /// An emissive dome 28 m across around a 10 m floor lands its light
     /// within its size, but is as large as the scene: a sky, not a lamp
     /// beside a bright patch, and it gets no light subpaths.
