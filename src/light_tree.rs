@@ -290,12 +290,11 @@ pub struct LightTree {
     nodes: Vec<WideNode>,
     /// Each light's leaf: `slot(node, lane)`.
     leaf_of: Vec<u32>,
-    /// Whether a light has a Spread: only then does the walk bound each
-    /// child by its emission cone (`WideNode::importances`).
-    spread: bool,
-    /// Each wide node's lanes' `Node::cos_spread`, where `spread`: apart
-    /// from the nodes, which a 32-byte lane more had made 3% slower to
-    /// walk in the lamp hall, without a Spread.
+    /// Each wide node's lanes' `Node::cos_spread` where a light has a
+    /// Spread, else empty: only then does the walk bound each child by its
+    /// emission cone (`WideNode::importances`). Apart from the nodes, which
+    /// a 32-byte lane more had made 3% slower to walk in the lamp hall,
+    /// without a Spread.
     cos_spread: Vec<[f32; WIDTH]>,
 }
 
@@ -304,8 +303,7 @@ impl LightTree {
     /// None without lights.
     pub fn new(lights: &[TreeLight]) -> Option<Self> {
         let binary = binary_tree(lights)?;
-        let spread = lights.iter().any(|l| l.facing.is_some() && l.cos_spread > 0.0);
-        let mut tree = LightTree { nodes: vec![WideNode::empty(u32::MAX)], leaf_of: vec![0; lights.len()], spread, cos_spread: vec![[0.0; WIDTH]] };
+        let mut tree = LightTree { nodes: vec![WideNode::empty(u32::MAX)], leaf_of: vec![0; lights.len()], cos_spread: vec![[0.0; WIDTH]] };
         // (wide node, the binary node it opens): a stack, as in the build.
         let mut work = vec![(0usize, 0usize)];
         while let Some((wide, node)) = work.pop() {
@@ -323,7 +321,23 @@ impl LightTree {
                 tree.cos_spread[wide][lane] = binary[kid].cos_spread;
             }
         }
+        if !lights.iter().any(|l| l.facing.is_some() && l.cos_spread > 0.0) {
+            tree.cos_spread = Vec::new();
+        }
         Some(tree)
+    }
+
+    /// Whether a light has a Spread.
+    #[inline(always)]
+    fn spread(&self) -> bool {
+        !self.cos_spread.is_empty()
+    }
+
+    /// Wide node `node`'s lanes' `Node::cos_spread`, read by the walk
+    /// with `SPREAD` alone.
+    #[inline(always)]
+    fn spread_lanes<const SPREAD: bool>(&self, node: usize) -> &[f32; WIDTH] {
+        if SPREAD { &self.cos_spread[node] } else { &[0.0; WIDTH] }
     }
 
     /// A light for a point at `p` whose light counts from above the plane
@@ -331,7 +345,7 @@ impl LightTree {
     /// index, the probability of picking it, and u rescaled within the pick
     /// to a fresh number in [0, 1).
     pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
-        if self.spread {
+        if self.spread() {
             return self.sample_spread(p, n, u);
         }
         #[cfg(target_arch = "x86_64")]
@@ -376,7 +390,7 @@ impl LightTree {
         let (mut index, mut probability) = (0, 1.0f32);
         loop {
             let node = &self.nodes[index];
-            let (parts, total) = node.parts::<SPREAD>(p, n, if SPREAD { &self.cos_spread[index] } else { &[0.0; WIDTH] });
+            let (parts, total) = node.parts::<SPREAD>(p, n, self.spread_lanes::<SPREAD>(index));
             // The lane whose interval of [0, total) holds u·total: the
             // count of running sums at or below it, without a branch a
             // lane (they mispredicted as often as not); one whose part is
@@ -408,7 +422,7 @@ impl LightTree {
     /// The probability with which `sample` picks `light` for a point at
     /// `p` and normal `n`.
     pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> f32 {
-        if self.spread {
+        if self.spread() {
             return self.probability_spread(light, p, n);
         }
         #[cfg(target_arch = "x86_64")]
@@ -443,7 +457,7 @@ impl LightTree {
         let mut probability = 1.0f32;
         loop {
             let node = &self.nodes[at / WIDTH];
-            let (parts, total) = node.parts::<SPREAD>(p, n, if SPREAD { &self.cos_spread[at / WIDTH] } else { &[0.0; WIDTH] });
+            let (parts, total) = node.parts::<SPREAD>(p, n, self.spread_lanes::<SPREAD>(at / WIDTH));
             probability *= parts[at % WIDTH] / total;
             if node.parent == u32::MAX {
                 return probability;
@@ -660,16 +674,16 @@ mod tests {
                 })
                 .collect();
             let tree = LightTree::new(&lights).unwrap();
-            assert_eq!(tree.spread, count >= 32);
+            assert_eq!(tree.spread(), count >= 32);
             for k in 0..200 {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 50.0 - 25.0;
                 let n = if k % 3 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
                 let u = rng.next_f32();
                 let (light, pick, rest) = tree.sample(p, n, u);
-                let (base_light, base_pick, base_rest) = if tree.spread { tree.sample_on::<true>(p, n, u) } else { tree.sample_on::<false>(p, n, u) };
+                let (base_light, base_pick, base_rest) = if tree.spread() { tree.sample_on::<true>(p, n, u) } else { tree.sample_on::<false>(p, n, u) };
                 assert_eq!((light, pick.to_bits(), rest.to_bits()), (base_light, base_pick.to_bits(), base_rest.to_bits()), "{count} lights at {p}, normal {n}, u {u}");
                 for i in [light, k % count] {
-                    let base = if tree.spread { tree.probability_on::<true>(i, p, n) } else { tree.probability_on::<false>(i, p, n) };
+                    let base = if tree.spread() { tree.probability_on::<true>(i, p, n) } else { tree.probability_on::<false>(i, p, n) };
                     assert_eq!(tree.probability(i, p, n).to_bits(), base.to_bits(), "light {i} of {count} at {p}");
                 }
             }

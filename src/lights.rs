@@ -89,7 +89,7 @@ pub struct Lights {
 /// ellipse (a fan of emitters from `first` on).
 enum Grid {
     Rectangle(Softbox),
-    Round { lamp: RoundSoftbox, first: usize, segments: usize },
+    Round { lamp: RoundSoftbox, first: usize },
 }
 
 
@@ -127,7 +127,7 @@ impl LocalTree {
                 (Some((_, partner)), _) if partner == k + 1 => 2,
                 // A round lamp with a Spread is one light: its samples are
                 // drawn over the whole of it (`Lights::point_on_softbox`).
-                (_, Some(&Grid::Round { first, segments, .. })) if first == k => segments,
+                (_, Some(Grid::Round { lamp, first })) if *first == k => lamp.segments(),
                 _ => 1,
             };
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
@@ -262,10 +262,10 @@ fn emitters(scene: &Scene, triangles: &[u32]) -> (Vec<Emitter>, Vec<Grid>) {
     let mut k = 0;
     while k < triangles.len() {
         match round_softbox(scene, &triangles[k..], &out[k..]) {
-            Some((lamp, segments)) => {
-                out[k..k + segments].iter_mut().for_each(|e| e.softbox = softboxes.len() as u32);
-                softboxes.push(Grid::Round { lamp, first: k, segments });
-                k += segments;
+            Some(lamp) => {
+                out[k..k + lamp.segments()].iter_mut().for_each(|e| e.softbox = softboxes.len() as u32);
+                softboxes.push(Grid::Round { lamp, first: k });
+                k += lamp.segments();
             }
             None => k += 1,
         }
@@ -274,24 +274,26 @@ fn emitters(scene: &Scene, triangles: &[u32]) -> (Vec<Emitter>, Vec<Grid>) {
 }
 
 /// The disk or ellipse lamp with a Spread whose fan `triangles` start
-/// with, and its segments: a one-sided lamp's material with a Spread,
+/// with: a one-sided lamp's material with a Spread,
 /// whole (lamps.rs writes the centre first, then the rim points of each
 /// segment, in turn).
-fn round_softbox(scene: &Scene, triangles: &[u32], records: &[Emitter]) -> Option<(RoundSoftbox, usize)> {
+fn round_softbox(scene: &Scene, triangles: &[u32], records: &[Emitter]) -> Option<RoundSoftbox> {
     let tri = |k: usize| &scene.triangles[triangles[k] as usize];
     let material = tri(0).material;
     let m = &scene.materials[material as usize];
     let spread = m.spread.filter(|_| m.lamp && !m.double_sided && records[0].quad.is_none())?;
     let centre = tri(0).p()[0];
     let segments = (0..triangles.len()).take_while(|&k| tri(k).material == material && tri(k).p()[0] == centre).count();
-    if segments < 8 || segments % 4 != 0 {
+    // A rectangle lamp's two triangles share their first corner too; a
+    // fan whose segments make no quarter turns `RoundSoftbox::new` refuses.
+    if segments < 8 {
         return None;
     }
     // The rim point two neighbouring segments share.
     let shared = |a: usize, b: usize| tri(a).p()[1..].iter().copied().find(|v| tri(b).p()[1..].contains(v));
     let (rim_x, rim_y) = (shared(segments - 1, 0)?, shared(segments / 4 - 1, segments / 4)?);
     let area = records[..segments].iter().map(|e| e.area).sum();
-    Some((RoundSoftbox::new(centre, rim_x, rim_y, records[0].normal, spread.tan_half(), segments, area)?, segments))
+    RoundSoftbox::new(centre, rim_x, rim_y, records[0].normal, spread.tan_half(), segments, area)
 }
 
 /// The local lights as a light tree's nodes would see them, emitting
@@ -410,6 +412,12 @@ fn clipped_density(picked: f32, clip: &Clip) -> Density {
         Some(view) => Density::SolidAngle(picked / view.solid_angle),
         None => Density::Area(picked / clip.area),
     }
+}
+
+/// The density of a point drawn by area from the circle of `radius` of a
+/// round softbox picked with probability `picked`.
+fn circle_density(picked: f32, radius: f32) -> Density {
+    Density::Area(picked / (std::f32::consts::PI * radius * radius))
 }
 
 /// Where a light subpath starts (`Lights::sample_emission`).
@@ -774,7 +782,7 @@ impl Lights {
                     let triangle = self.triangles[first + lamp.segment(point)];
                     // A point beyond the rim is lost, as in Cycles.
                     let b = plane_barycentrics(point, &scene.triangles[triangle as usize]).filter(|b| b.min_element() >= 0.0 && b.x + b.y <= 1.0)?;
-                    Some((triangle, b, Density::Area(pdf_area * lamp.area / (std::f32::consts::PI * radius * radius))))
+                    Some((triangle, b, circle_density(pdf_area * lamp.area, radius)))
                 })(),
             },
         };
@@ -852,7 +860,7 @@ impl Lights {
                 Reach::Behind => return 0.0,
                 // A point drawn at the circle's rim rounds a hair outside.
                 Reach::Circle { foot, radius } if point.distance_squared(foot) <= radius * radius * (1.0 + 1e-4) => {
-                    return solid_angle_density(pdf_area * lamp.area / (std::f32::consts::PI * radius * radius), dist2, cos_light);
+                    return LightSample::pdf_of(circle_density(pdf_area * lamp.area, radius), dist2, cos_light);
                 }
                 Reach::Circle { .. } => return 0.0,
                 Reach::Whole => {}

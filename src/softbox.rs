@@ -167,7 +167,7 @@ impl RoundSoftbox {
     pub fn new(centre: Vec3, rim_x: Vec3, rim_y: Vec3, normal: Vec3, tan_half: f32, segments: usize, area: f32) -> Option<Self> {
         let (ex, ey) = (rim_x - centre, rim_y - centre);
         let (ax, ay) = (ex.length(), ey.length());
-        if !(ax > 0.0 && ay > 0.0 && tan_half > 0.0 && tan_half.is_finite() && area > 0.0 && segments % 4 == 0 && segments > 0) {
+        if !(ax > 0.0 && ay > 0.0 && tan_half > 0.0 && tan_half.is_finite() && area > 0.0 && segments.is_multiple_of(4) && segments > 0) {
             return None;
         }
         let (x, y) = (ex / ax, ey / ay);
@@ -187,6 +187,11 @@ impl RoundSoftbox {
             return Reach::Whole;
         }
         Reach::Circle { foot: p - self.normal * height, radius }
+    }
+
+    /// The triangles of its fan.
+    pub fn segments(&self) -> usize {
+        self.segments
     }
 
     /// The fan segment (0 to `segments` − 1) whose angle holds `point` of
