@@ -5,7 +5,9 @@
 //! 1. Time per sample of the pure-diffuse Cornell box
 //!    (scenes/cornell-box-diffuse.gltf, 256×256, up to 16 bounces) on the
 //!    kernel its features choose and on the general one (`--features all`),
-//!    alternating runs, with a check that the two images are bit-identical.
+//!    alternating runs, with a check that the two images are bit-identical;
+//!    light subpaths off in both (`auto` traces them in this box, open at
+//!    the front), so that the figure is the kernels' alone.
 //! 2. Peak resident memory of loading and rendering that scene as a GLB, and
 //!    as a GLB that also carries ~200 MB the scene does not reference (a mesh
 //!    no node uses, an animation, a skin and an image), each in a fresh
@@ -17,7 +19,7 @@ mod glb;
 use glint::features::FeatureMode;
 use glint::integrator::Context;
 use glint::job::{self, JobOptions};
-use glint::render::{render_pass, Film, RenderSettings};
+use glint::render::{render_pass, Film, LightPaths, RenderSettings};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -39,7 +41,8 @@ fn main() -> anyhow::Result<()> {
 
 fn kernel_speed(scene: &Path, spp: u32, runs: u32) -> anyhow::Result<()> {
     let options = JobOptions { width: Some(256), height: Some(256), ..Default::default() };
-    let job = job::prepare(Some(scene), &options, Default::default()).map_err(anyhow::Error::msg)?;
+    let mut job = job::prepare(Some(scene), &options, Default::default()).map_err(anyhow::Error::msg)?;
+    job.settings.light_paths = LightPaths::Off;
     let (ctx, _) = Context::new(&job.scene);
     let threads = rayon::current_num_threads();
     println!("## Kernel specialisation: {} at 256x256, {spp} spp, {runs} runs each, {threads} threads", scene.display());
@@ -82,7 +85,8 @@ fn kernel_speed(scene: &Path, spp: u32, runs: u32) -> anyhow::Result<()> {
 /// Load, build and render one small pass; report the peak resident set.
 fn child(scene: &Path) -> anyhow::Result<()> {
     let options = JobOptions { width: Some(64), height: Some(64), samples: Some(1), ..Default::default() };
-    let job = job::prepare(Some(scene), &options, Default::default()).map_err(anyhow::Error::msg)?;
+    let mut job = job::prepare(Some(scene), &options, Default::default()).map_err(anyhow::Error::msg)?;
+    job.settings.light_paths = LightPaths::Off;
     let (ctx, _) = Context::new(&job.scene);
     let mut film = Film::new(64, 64);
     render_pass(&ctx, &job.settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}).expect("not cancelled");

@@ -147,24 +147,34 @@ impl<'a> Context<'a> {
     }
 
     /// Whether light subpaths find light here that camera paths reach
-    /// only by chance, the three ways known: a glossy surface that focuses
+    /// only by chance, the four ways known: a glossy surface that focuses
     /// light into caustics (`Features::focusing`); emitters whose light
     /// first lands near them — the ceiling above a hanging two-sided lamp,
     /// a slit, a shade, the floor around a glowing object —, a bright patch
-    /// light sampling does not know of (`light_paths::near_share`); or a
-    /// lamp with a Spread, whose grid throws its light onto such a patch
-    /// wherever it lands (a 0.6 m lamp 3 m over a matte floor and ball,
-    /// 4 spp: 51×, 13× and 2.4× less error × time with them at 20°, 90°
-    /// and 150°, where the near share had left them out).
+    /// light sampling does not know of (`light_paths::Landing::near`); a
+    /// scene open to the World on some sides, whose indirect light a BSDF
+    /// sample finds only part of the time (`Landing::onward`: a ball in
+    /// the corner of two walls under a lamp, 1.8× less error × time with
+    /// them at 16 spp); or a lamp with a Spread, whose grid throws its light onto
+    /// such a patch wherever it lands (a 0.6 m lamp 3 m over a matte floor
+    /// and ball, 4 spp: 51×, 13× and 2.4× less error × time with them at
+    /// 20°, 90° and 150°, where the near share had left them out).
     /// Elsewhere they cost time for no less error: in the benchmark's hall
     /// (32 area lights under the ceiling, one Lambertian grey) 20% of the
-    /// time for error within ±6% at 1–16 spp; in a Cornell box of
-    /// Lambertian walls lit from a one-sided ceiling lamp, error × time
-    /// within ±15%. Where they pay, they pay severalfold: the same box with
-    /// its lamp two-sided had 7–10× the error × time without them with the
-    /// lamp 1 cm under the ceiling, 3.6–4.6× with it 30 cm under.
+    /// time for error within ±6% at 1–16 spp, in a closed 4 m room 1.07×
+    /// the error × time, on a bare floor 1.25×. Where they pay, they can
+    /// pay severalfold: the Cornell box with its lamp two-sided had 7–10×
+    /// the error × time without them with the lamp 1 cm under the ceiling,
+    /// 3.6–4.6× with it 30 cm under.
+    /// Found once, before a render's clock starts (its features line asks).
     pub fn light_paths_pay(&self) -> bool {
-        *self.light_paths_pay.get_or_init(|| self.features.focusing || self.scene.materials.iter().any(|m| m.spread.is_some()) || crate::light_paths::near_share(self) > crate::light_paths::NEAR_SHARE)
+        *self.light_paths_pay.get_or_init(|| {
+            use crate::light_paths::{landing, NEAR_SHARE, ONWARD_OPEN};
+            self.features.focusing || self.scene.materials.iter().any(|m| m.spread.is_some()) || {
+                let landing = landing(self);
+                landing.near > NEAR_SHARE || ONWARD_OPEN.contains(&landing.onward)
+            }
+        })
     }
 
     /// The closest surface a ray stops at: with alpha in the scene, a

@@ -67,8 +67,10 @@ struct RenderOptions {
     /// Connections of camera vertices to light subpaths, and light tracing
     /// (needs MIS and emitting surfaces); auto: on where they pay, where
     /// some surface is glossy enough to focus light into caustics
-    /// (roughness below 0.6) or an emitter's light lands near it (the
-    /// ceiling above a hanging two-sided lamp, a slit, a shade) [default: auto].
+    /// (roughness below 0.6), an emitter's light lands near it (the
+    /// ceiling above a hanging two-sided lamp, a slit, a shade), a lamp has
+    /// a Spread, or the scene is open to the World on some sides (a corner,
+    /// a niche, a box open at the front) [default: auto].
     #[arg(long, value_parser = ["auto", "on", "off"])]
     light_paths: Option<String>,
     /// BSDF model: what Cycles' Principled BSDF does, or the seed's formulas [default: principled].

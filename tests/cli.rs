@@ -105,8 +105,9 @@ fn inspect_reports_a_sample_model() {
 
 /// Every render starts with one line saying what the scene uses and which
 /// kernel runs; `--features all` forces the general kernel, and for the
-/// same seed both write the same pixels. A scene with no glossy surface
-/// goes without light subpaths unless asked for them.
+/// same seed both write the same pixels (light subpaths off in both). The
+/// diffuse box, open at the front, gets light subpaths from `auto`
+/// (`Landing::onward`); the glossy one for its caustics.
 #[test]
 fn the_features_line_and_the_general_kernel() {
     let dir = temp_dir("features");
@@ -114,7 +115,7 @@ fn the_features_line_and_the_general_kernel() {
     let mut images = Vec::new();
     for (mode, kernel) in [("auto", "kernel: lambert + emitters"), ("all", "kernel: principled + glass + emitters + lamps + punctual")] {
         let exr = dir.join(format!("{mode}.exr"));
-        let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "3", "--width", "24", "--height", "24", "--features", mode]);
+        let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "3", "--width", "24", "--height", "24", "--features", mode, "--light-paths", "off"]);
         let err = stderr(&o);
         assert!(o.status.success(), "{err}");
         let line = err.lines().next().unwrap_or_default();
@@ -131,7 +132,8 @@ fn the_features_line_and_the_general_kernel() {
         assert!(o.status.success(), "{}", stderr(&o));
         stderr(&o).lines().next().unwrap_or_default().to_string()
     };
-    assert!(first_line(&scene, &["--light-paths", "on"]).ends_with("kernel: lambert + emitters + light paths"));
+    assert!(first_line(&scene, &[]).ends_with("kernel: lambert + emitters + light paths"));
+    assert!(first_line(&scene, &["--light-paths", "off"]).ends_with("kernel: lambert + emitters"));
     let glossy = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
     let line = first_line(&glossy, &[]);
     assert!(line.contains("focusing") && line.ends_with("+ light paths"), "{line}");
