@@ -650,6 +650,16 @@ mod tests {
             assert!(onward.contains(&share.onward), "{} walls: {share:?}", walls.len());
             assert_eq!(ctx.light_paths_pay(), pays, "{} walls: {share:?}", walls.len());
         }
+        // The same corner a thousandth and a thousand times the size: the
+        // shares are ratios, and the rays' offsets follow the scale.
+        let corner = lamp_over_floor(&[back, side], PI);
+        let reference = landing(&Context::new(&corner).0);
+        for scale in [1e-3f32, 1e3] {
+            let triangles = corner.triangles.iter().map(|t| Triangle::new(t.p().map(|p| p * scale), t.n(), t.material)).collect();
+            let scaled = Scene::new(triangles, corner.materials.clone(), corner.camera.clone());
+            let share = landing(&Context::new(&scaled).0);
+            assert!((share.onward - reference.onward).abs() < 0.03 && share.near == reference.near, "×{scale}: {share:?} against {reference:?}");
+        }
     }
 
     /// The same two-sided lamp (0.5 m square, 0.71 m across) hung 30 cm
