@@ -230,6 +230,8 @@ def render_request(depsgraph, job, width, height):
         request["single_scatter_materials"] = single_scatter
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
+    if settings.light_paths != "AUTO":
+        request["light_paths"] = settings.light_paths == "ON"
     if scene.camera is not None:
         request["camera"] = scene.camera.name
     return request, warnings

@@ -21,6 +21,17 @@ class GlintRenderSettings(bpy.types.PropertyGroup):
         ],
         default="PRINCIPLED",
     )
+    light_paths: bpy.props.EnumProperty(
+        name="Light Paths",
+        description="Paths traced from the lights and joined to the camera's: they find light that camera paths reach only by chance "
+        "(caustics, the patch a lamp lights beside it, the indirect light of a scene open to the World on some sides)",
+        items=[
+            ("AUTO", "Auto", "Where they pay for their time: Glint decides from the scene (its first line says which)"),
+            ("ON", "On", "Always, where there are emitting surfaces or area lights to start them"),
+            ("OFF", "Off", "Never: camera paths alone"),
+        ],
+        default="AUTO",
+    )
     threads: bpy.props.IntProperty(
         name="Threads", description="Render threads (0: all cores but one, so Blender stays responsive)", default=0, min=0, max=1024
     )
@@ -48,6 +59,7 @@ class RENDER_PT_glint_sampling(bpy.types.Panel):
         col.prop(settings, "max_bounces")
         col.prop(settings, "seed")
         col.prop(settings, "bsdf")
+        col.prop(settings, "light_paths")
         col.prop(settings, "threads")
 
 

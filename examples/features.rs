@@ -7,7 +7,7 @@
 //!    kernel its features choose and on the general one (`--features all`),
 //!    alternating runs, with a check that the two images are bit-identical;
 //!    light subpaths off in both (`auto` traces them in this box, open at
-//!    the front), so that the figure is the kernels' alone.
+//!    the front), so that the figure is the kernels' alone, and in 2.
 //! 2. Peak resident memory of loading and rendering that scene as a GLB, and
 //!    as a GLB that also carries ~200 MB the scene does not reference (a mesh
 //!    no node uses, an animation, a skin and an image), each in a fresh

@@ -38,7 +38,8 @@ pub struct JobOptions {
     /// An environment image for the World (replaces `background`).
     pub environment: Option<crate::request::EnvironmentRequest>,
     pub sampler: Option<crate::rng::Sampler>,
-    pub light_paths: Option<bool>,
+    /// `--light-paths`, else the request's, else `Auto`.
+    pub light_paths: Option<LightPaths>,
 }
 
 impl JobOptions {
@@ -83,7 +84,7 @@ impl From<&RenderRequest> for JobOptions {
             two_sided_emission: r.two_sided_emission,
             features: None,
             sampler: None,
-            light_paths: None,
+            light_paths: r.light_paths.map(|on| if on { LightPaths::On } else { LightPaths::Off }),
             environment: r.environment.clone(),
         }
     }
@@ -178,11 +179,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     };
     // `--light-paths` turns the connections and light tracing on and off
     // together.
-    let light_paths = match options.light_paths {
-        Some(true) => LightPaths::On,
-        Some(false) => LightPaths::Off,
-        None => LightPaths::Auto,
-    };
+    let light_paths = options.light_paths.unwrap_or_default();
     let settings = RenderSettings {
         width,
         height,

@@ -9,7 +9,7 @@ use glint::job::{self, Job, JobOptions};
 use glint::loader;
 use glint::output;
 use glint::progressive::render_progressive;
-use glint::render::{render_pass, Film, PassStats};
+use glint::render::{render_pass, Film, LightPaths, PassStats};
 use glint::request::EnvironmentRequest;
 use glint::request::RenderRequest;
 use glint::rng::Sampler;
@@ -70,7 +70,7 @@ struct RenderOptions {
     /// (roughness below 0.6), an emitter's light lands near it (the
     /// ceiling above a hanging two-sided lamp, a slit, a shade), a lamp has
     /// a Spread, or the scene is open to the World on some sides (a corner,
-    /// a niche, a box open at the front) [default: auto].
+    /// a niche, a box open at the front) [default: the request's, else auto].
     #[arg(long, value_parser = ["auto", "on", "off"])]
     light_paths: Option<String>,
     /// BSDF model: what Cycles' Principled BSDF does, or the seed's formulas [default: principled].
@@ -124,7 +124,11 @@ impl RenderOptions {
             max_depth: self.max_depth,
             seed: self.seed,
             mis: self.mis.as_deref().map(|m| m == "on"),
-            light_paths: self.light_paths.as_deref().and_then(|m| (m != "auto").then_some(m == "on")),
+            light_paths: self.light_paths.as_deref().map(|m| match m {
+                "on" => LightPaths::On,
+                "off" => LightPaths::Off,
+                _ => LightPaths::Auto,
+            }),
             sampler: self.sampler.as_deref().map(|s| if s == "random" { Sampler::Random } else { Sampler::Sobol }),
             camera: self.camera.clone(),
             scene_index: self.scene_index,

@@ -7,6 +7,7 @@
 //! ```json
 //! { "job": "render-3", "width": 640, "height": 360, "samples": 128,
 //!   "time_limit": 0, "max_depth": 13, "camera": "Camera", "seed": 0,
+//!   "light_paths": true,
 //!   "output": "render.exr", "background": [0.05, 0.05, 0.05],
 //!   "area_lights": [ { "name": "Area", "shape": "RECTANGLE",
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
@@ -46,6 +47,9 @@ pub struct RenderRequest {
     pub mis: Option<bool>,
     /// "principled" (default) or "seed".
     pub bsdf: Option<BsdfModel>,
+    /// Light subpaths (`--light-paths`): true always, false never; absent,
+    /// where they pay (`auto`).
+    pub light_paths: Option<bool>,
     /// Where the EXR goes, relative to the request's folder.
     pub output: Option<String>,
     /// World radiance in W·sr⁻¹·m⁻² (Blender: Background colour × strength).

@@ -142,6 +142,28 @@ fn the_features_line_and_the_general_kernel() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A request's `light_paths` (the add-on's Light Paths setting) decides
+/// where the command line does not: false leaves out the light subpaths
+/// `auto` traces in the diffuse Cornell box, and `--light-paths auto`
+/// given on the command line brings them back.
+#[test]
+fn a_request_sets_light_paths_and_the_command_line_overrides_it() {
+    let dir = temp_dir("request-light-paths");
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box-diffuse.gltf");
+    let first_line = |request: &str, extra: &[&str]| {
+        let (req, exr) = (dir.join("request.json"), dir.join("out.exr"));
+        std::fs::write(&req, request).unwrap();
+        let o = glint(&[&["render", scene.to_str().unwrap(), "--request", req.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "1", "--width", "8", "--height", "8"], extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o).lines().next().unwrap_or_default().to_string()
+    };
+    assert!(first_line("{}", &[]).ends_with("+ light paths"));
+    assert!(!first_line(r#"{"light_paths": false}"#, &[]).contains("light paths"));
+    assert!(first_line(r#"{"light_paths": false}"#, &["--light-paths", "auto"]).ends_with("+ light paths"));
+    assert!(first_line(r#"{"light_paths": true}"#, &["--mis", "off"]).ends_with("kernel: lambert + emitters"), "light subpaths need MIS");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_missing_environment_image_is_a_one_line_error() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_glint"))

@@ -130,6 +130,19 @@ def test_the_request_carries_area_lights_and_the_world(empty_scene):
     assert -m[:3, 2] == pytest.approx([0, -1, 0])
 
 
+def test_the_light_paths_setting_goes_in_the_request(empty_scene):
+    """Auto leaves the choice to Glint (no field: the renderer decides from
+    the scene); On and Off say so, and `glint render` honours the field
+    (tests/cli.rs)."""
+    build_scene(empty_scene)
+    seen = {}
+    for setting in ("AUTO", "ON", "OFF"):
+        empty_scene.glint.light_paths = setting
+        request, _ = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        seen[setting] = request.get("light_paths")
+    assert seen == {"AUTO": None, "ON": True, "OFF": False}, seen
+
+
 def test_cancel_stops_the_render_promptly_and_leaves_nothing_behind(empty_scene, monkeypatch):
     build_scene(empty_scene)
     empty_scene.glint.samples = 1_000_000
