@@ -588,10 +588,10 @@ mod tests {
 
     /// The diffuse Cornell box's lamp hangs 1 cm under the ceiling: facing
     /// down only, its light lands metres away, but the box is open at the
-    /// front (a third of its light leaves there), so light subpaths are
-    /// traced for it (`Landing::onward`, 1.1× less error × time);
-    /// emitting from both faces, half of it lands in the slit, and they
-    /// carry it out (7–10× less error × time there).
+    /// front (a third of its light has left it by its second bounce), so
+    /// light subpaths are traced for it (`Landing::onward`, 1.1× less
+    /// error × time); emitting from both faces, half of it lands in the
+    /// slit, and they carry it out (7–10× less error × time there).
     #[test]
     fn light_in_a_slit_lands_near_and_light_paths_pay_for_it() {
         let one_sided = diffuse_cornell_box(false);
