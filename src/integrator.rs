@@ -155,7 +155,9 @@ impl<'a> Context<'a> {
     /// scene open to the World on some sides, whose indirect light a BSDF
     /// sample finds only part of the time (`Landing::onward`: a ball in
     /// the corner of two walls under a lamp, 1.8× less error × time with
-    /// them at 16 spp); or a lamp with a Spread, whose grid throws its light onto
+    /// them at 16 spp), where the emitters give most of the light their
+    /// own lands in (`Landing::emitters`: not a lamp in daylight); or a
+    /// lamp with a Spread, whose grid throws its light onto
     /// such a patch wherever it lands (a 0.6 m lamp 3 m over a matte floor
     /// and ball, 4 spp: 51×, 13× and 2.4× less error × time with them at
     /// 20°, 90° and 150°, where the near share had left them out).
@@ -169,10 +171,10 @@ impl<'a> Context<'a> {
     /// Found once, before a render's clock starts (its features line asks).
     pub fn light_paths_pay(&self) -> bool {
         *self.light_paths_pay.get_or_init(|| {
-            use crate::light_paths::{landing, NEAR_SHARE, ONWARD_OPEN};
+            use crate::light_paths::{landing, EMITTERS_LIGHT, NEAR_SHARE, ONWARD_OPEN};
             self.features.focusing || self.scene.materials.iter().any(|m| m.spread.is_some()) || {
                 let landing = landing(self);
-                landing.near > NEAR_SHARE || ONWARD_OPEN.contains(&landing.onward)
+                landing.near > NEAR_SHARE || (ONWARD_OPEN.contains(&landing.onward) && landing.emitters >= EMITTERS_LIGHT)
             }
         })
     }

@@ -350,6 +350,10 @@ pub(crate) const NEAR_SHARE: f32 = 0.1;
 /// above, a closed room, whose walls' light reaches a point from every
 /// side, where a BSDF sample finds it as well as they do.
 pub(crate) const ONWARD_OPEN: std::ops::Range<f32> = 0.01..0.95;
+/// The emitters' share of the light where theirs lands
+/// (`Landing::emitters`) from which the onward share counts: twice the
+/// World's and the punctual lights' together.
+pub(crate) const EMITTERS_LIGHT: f32 = 2.0 / 3.0;
 
 /// What becomes of the emitters' light where it first lands (`landing`).
 #[derive(Clone, Copy, Debug)]
@@ -392,6 +396,17 @@ pub(crate) struct Landing {
     /// 0.8×, a closed 4 m room (1.0) 0.89× and 0.93×, the benchmark's hall
     /// (1.0) 0.8× (README, *A scene pays only for what it uses*).
     pub onward: f32,
+    /// The emitters' share of the irradiance where their light lands,
+    /// against the World's and the punctual lights' (which light subpaths
+    /// do not carry), each landing point weighted by the light landing
+    /// there: the onward share counts for light subpaths only from
+    /// `EMITTERS_LIGHT` on. The open corner (onward 0.49) under a brighter
+    /// and brighter World, light subpaths against none (error × time, 4
+    /// and 16 spp): World 0.05 (share 0.99) 2.2× and 1.8× less, 1 (0.81)
+    /// 1.6× and 1.4×, 2 (0.68) 1.14× and 1.02×, 3 (0.59) 0.83× and 0.79×,
+    /// 5 (0.46) 0.61× and 0.62×, 10 (0.30) 0.56× and 0.57×: a lamp in
+    /// daylight lights too little for them to pay.
+    pub emitters: f32,
 }
 
 /// Where the emitters' light first lands, and where it goes from there
@@ -403,6 +418,7 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
     let largest = NEAR_LARGEST * (hi - lo).length();
     let mut rng = Rng::new(0x7472_6170_7065_6421, 0);
     let (mut near, mut onward, mut total) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut emitted, mut other) = (0.0f64, 0.0f64);
     for _ in 0..NEAR_RAYS {
         let (u_pick, u_point) = rng.next_1d_2d();
         let Some(start) = ctx.lights.sample_emission(ctx.scene, u_pick, u_point, rng.next_2d()) else { continue };
@@ -422,10 +438,35 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
         let dir = Frame::from_normal(si.ng).to_world(crate::sampling::cosine_hemisphere(rng.next_2d()));
         if ctx.intersect(si.spawn_origin(dir), dir, RayKind::Bounce, &mut rng).is_some() {
             onward += power;
+        } else {
+            // The World's irradiance there, π·L one cosine sample.
+            other += PI as f64 * ctx.scene.world_radiance(dir).element_sum() as f64 / 3.0;
+        }
+        // The emitters' irradiance there, from the start's point as an
+        // area sample of all of them: Le·cos·cos'/(t²·p_A).
+        let m = &ctx.scene.materials[ctx.scene.triangles[start.triangle as usize].material as usize];
+        let cos_out = start.normal.dot(start.dir).abs();
+        let cos_in = si.ng.dot(-start.dir).max(0.0);
+        let p_area = ctx.lights.emission_density(m) as f64;
+        if p_area > 0.0 {
+            emitted += start.le.element_sum() as f64 / 3.0 * (cos_out * cos_in) as f64 / (hit.t as f64 * hit.t as f64) / p_area;
+        }
+        // A punctual light's, one picked at random, if it reaches there.
+        if !ctx.scene.punctual.is_empty() {
+            let count = ctx.scene.punctual.len();
+            let light = &ctx.scene.punctual[((rng.next_f32() * count as f32) as usize).min(count - 1)];
+            if let Some(inc) = light.incident(si.p, rng.next_2d()) {
+                let cos = si.ng.dot(inc.wi);
+                if cos > 0.0 && !ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, &mut rng) {
+                    other += count as f64 * (inc.irradiance.element_sum() / 3.0 * cos) as f64;
+                }
+            }
         }
     }
     let share = |part: f64| if total > 0.0 { (part / total) as f32 } else { 0.0 };
-    Landing { near: share(near), onward: share(onward) }
+    // An emitter's own light landing on it (t → 0) is no less its own.
+    let emitters = if emitted.is_finite() && emitted + other > 0.0 { (emitted / (emitted + other)) as f32 } else { 1.0 };
+    Landing { near: share(near), onward: share(onward), emitters }
 }
 
 /// For each of the `emitting` scene triangles (the lights' emitters, which
@@ -649,9 +690,18 @@ mod tests {
             let (ctx, _) = Context::new(&scene);
             let share = landing(&ctx);
             assert!(!ctx.features.focusing && share.near < NEAR_SHARE, "{} walls: {share:?}", walls.len());
-            assert!(onward.contains(&share.onward), "{} walls: {share:?}", walls.len());
+            assert!(onward.contains(&share.onward) && share.emitters == 1.0, "{} walls: {share:?}", walls.len());
             assert_eq!(ctx.light_paths_pay(), pays, "{} walls: {share:?}", walls.len());
         }
+        // The same corner under a World of radiance 10, which lights the
+        // floor and walls where the lamp's light lands nine times as
+        // brightly as the lamp: no longer.
+        let mut daylight = lamp_over_floor(&[back, side], PI);
+        daylight.background = Vec3::splat(10.0);
+        let (ctx, _) = Context::new(&daylight);
+        let share = landing(&ctx);
+        assert!(ONWARD_OPEN.contains(&share.onward) && (0.05..0.2).contains(&share.emitters), "{share:?}");
+        assert!(!ctx.light_paths_pay());
         // The same corner a thousandth and a thousand times the size: the
         // shares are ratios, and the rays' offsets follow the scale.
         let corner = lamp_over_floor(&[back, side], PI);
