@@ -442,31 +442,42 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
             // The World's irradiance there, π·L one cosine sample.
             other += PI as f64 * ctx.scene.world_radiance(dir).element_sum() as f64 / 3.0;
         }
-        // The emitters' irradiance there, from the start's point as an
-        // area sample of all of them: Le·cos·cos'/(t²·p_A).
-        let m = &ctx.scene.materials[ctx.scene.triangles[start.triangle as usize].material as usize];
-        let cos_out = start.normal.dot(start.dir).abs();
-        let cos_in = si.ng.dot(-start.dir).max(0.0);
-        let p_area = ctx.lights.emission_density(m) as f64;
-        if p_area > 0.0 {
-            emitted += start.le.element_sum() as f64 / 3.0 * (cos_out * cos_in) as f64 / (hit.t as f64 * hit.t as f64) / p_area;
-        }
-        // A punctual light's, one picked at random, if it reaches there.
-        if !ctx.scene.punctual.is_empty() {
-            let count = ctx.scene.punctual.len();
-            let light = &ctx.scene.punctual[((rng.next_f32() * count as f32) as usize).min(count - 1)];
-            if let Some(inc) = light.incident(si.p, rng.next_2d()) {
-                let cos = si.ng.dot(inc.wi);
-                if cos > 0.0 && !ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, &mut rng) {
-                    other += count as f64 * (inc.irradiance.element_sum() / 3.0 * cos) as f64;
-                }
-            }
-        }
+        emitted += emitters_irradiance(ctx, &start, &si, hit.t);
+        other += punctual_irradiance(ctx, &si, &mut rng);
     }
     let share = |part: f64| if total > 0.0 { (part / total) as f32 } else { 0.0 };
     // An emitter's own light landing on it (t → 0) is no less its own.
     let emitters = if emitted.is_finite() && emitted + other > 0.0 { (emitted / (emitted + other)) as f32 } else { 1.0 };
     Landing { near: share(near), onward: share(onward), emitters }
+}
+
+/// The emitters' irradiance (mean over RGB) at `si`, where `start`'s ray
+/// landed at distance `t`, from the start's point as an area sample of all
+/// of them: Le·cos·cos'/(t²·p_A).
+fn emitters_irradiance(ctx: &Context, start: &crate::lights::EmissionSample, si: &SurfaceHit, t: f32) -> f64 {
+    let m = &ctx.scene.materials[ctx.scene.triangles[start.triangle as usize].material as usize];
+    let p_area = ctx.lights.emission_density(m) as f64;
+    if !(p_area > 0.0) {
+        return 0.0;
+    }
+    let cosines = (start.normal.dot(start.dir).abs() * si.ng.dot(-start.dir).max(0.0)) as f64;
+    start.le.element_sum() as f64 / 3.0 * cosines / (t as f64 * t as f64) / p_area
+}
+
+/// The punctual lights' irradiance (mean over RGB) at `si`, on its side:
+/// one picked at random with its shadow ray, times their count.
+fn punctual_irradiance(ctx: &Context, si: &SurfaceHit, rng: &mut Rng) -> f64 {
+    let count = ctx.scene.punctual.len();
+    if count == 0 {
+        return 0.0;
+    }
+    let light = &ctx.scene.punctual[((rng.next_f32() * count as f32) as usize).min(count - 1)];
+    let Some(inc) = light.incident(si.p, rng.next_2d()) else { return 0.0 };
+    let cos = si.ng.dot(inc.wi);
+    if !(cos > 0.0) || ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, rng) {
+        return 0.0;
+    }
+    count as f64 * (inc.irradiance.element_sum() / 3.0 * cos) as f64
 }
 
 /// For each of the `emitting` scene triangles (the lights' emitters, which
@@ -702,6 +713,14 @@ mod tests {
         let share = landing(&ctx);
         assert!(ONWARD_OPEN.contains(&share.onward) && (0.05..0.2).contains(&share.emitters), "{share:?}");
         assert!(!ctx.light_paths_pay());
+        // Or under a sun, straight down, that does the same; a dim one
+        // leaves them in (its light counted only where it reaches).
+        for (sun, pays) in [(30.0, false), (0.3, true)] {
+            let mut sunlit = lamp_over_floor(&[back, side], PI);
+            sunlit.punctual.push(crate::punctual::PunctualLight { name: "sun".into(), kind: crate::punctual::PunctualKind::Sun, position: Vec3::ZERO, direction: -Vec3::Y, intensity: Vec3::splat(sun), size: 0.0, sphere: false, camera_sees: false });
+            let (ctx, _) = Context::new(&sunlit);
+            assert_eq!(ctx.light_paths_pay(), pays, "sun {sun}: {:?}", landing(&ctx));
+        }
         // The same corner a thousandth and a thousand times the size: the
         // shares are ratios, and the rays' offsets follow the scale.
         let corner = lamp_over_floor(&[back, side], PI);
