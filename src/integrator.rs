@@ -170,13 +170,7 @@ impl<'a> Context<'a> {
     /// 3.6–4.6× with it 30 cm under.
     /// Found once, before a render's clock starts (its features line asks).
     pub fn light_paths_pay(&self) -> bool {
-        *self.light_paths_pay.get_or_init(|| {
-            use crate::light_paths::{landing, EMITTERS_LIGHT, NEAR_SHARE, ONWARD_OPEN};
-            self.features.focusing || self.scene.materials.iter().any(|m| m.spread.is_some()) || {
-                let landing = landing(self);
-                landing.near > NEAR_SHARE || (ONWARD_OPEN.contains(&landing.onward) && landing.emitters >= EMITTERS_LIGHT)
-            }
-        })
+        *self.light_paths_pay.get_or_init(|| self.features.focusing || self.scene.materials.iter().any(|m| m.spread.is_some()) || crate::light_paths::landing(self).pays())
     }
 
     /// The closest surface a ray stops at: with alpha in the scene, a

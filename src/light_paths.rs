@@ -342,18 +342,18 @@ const NEAR_LARGEST: f32 = 0.5;
 /// The share of the emitted power landing near its emitters above which
 /// light subpaths are traced (`Context::light_paths_pay`). A two-sided
 /// lamp under a ceiling sends half its power there.
-pub(crate) const NEAR_SHARE: f32 = 0.1;
+const NEAR_SHARE: f32 = 0.1;
 /// The shares of the emitted power going on from where it lands to
 /// another surface (`Landing::onward`) for which light subpaths are
 /// traced: a scene open to the World on some sides. Below, almost none of
 /// the light bounces on and they cannot pay their time (a bare floor);
 /// above, a closed room, whose walls' light reaches a point from every
 /// side, where a BSDF sample finds it as well as they do.
-pub(crate) const ONWARD_OPEN: std::ops::Range<f32> = 0.01..0.95;
+const ONWARD_OPEN: std::ops::Range<f32> = 0.01..0.95;
 /// The emitters' share of the light where theirs lands
 /// (`Landing::emitters`) from which the onward share counts: twice the
 /// World's and the punctual lights' together.
-pub(crate) const EMITTERS_LIGHT: f32 = 2.0 / 3.0;
+const EMITTERS_LIGHT: f32 = 2.0 / 3.0;
 
 /// What becomes of the emitters' light where it first lands (`landing`).
 #[derive(Clone, Copy, Debug)]
@@ -407,6 +407,15 @@ pub(crate) struct Landing {
     /// 5 (0.46) 0.61× and 0.62×, 10 (0.30) 0.56× and 0.57×: a lamp in
     /// daylight lights too little for them to pay.
     pub emitters: f32,
+}
+
+impl Landing {
+    /// Whether light subpaths pay for this landing: much of the light lands
+    /// near its emitter, or the scene is open on some sides and the
+    /// emitters give most of the light where theirs lands.
+    pub(crate) fn pays(&self) -> bool {
+        self.near > NEAR_SHARE || (ONWARD_OPEN.contains(&self.onward) && self.emitters >= EMITTERS_LIGHT)
+    }
 }
 
 /// Where the emitters' light first lands, and where it goes from there
