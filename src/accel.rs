@@ -166,6 +166,27 @@ impl Accel {
         best
     }
 
+    /// Every triangle of this BVH as (slot, scene triangle): a slot names
+    /// the leaf and lane the traversal tests it in (`hit_in_slot`).
+    pub fn slots(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        // Leaves are filled from lane 0: a leaf's lanes up to its count.
+        self.bvh.leaves.iter().zip(&self.pack_ids).enumerate().flat_map(|(leaf, (&(_, count), lanes))| lanes[..count as usize].iter().enumerate().map(move |(lane, &t)| ((leaf * 4 + lane) as u32, t)))
+    }
+
+    /// Triangles in this BVH.
+    pub fn triangle_count(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// The hit on the triangle in `slot` alone, by the very test (and so
+    /// to the bit the numbers) the traversal would make of it.
+    #[inline]
+    pub fn hit_in_slot(&self, slot: u32, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        let (leaf, lane) = ((slot / 4) as usize, (slot % 4) as usize);
+        let hits = self.packs[leaf].intersect(&PackRay::new(origin, dir), f32::INFINITY);
+        (hits.mask & (1 << lane) != 0).then(|| Hit { t: hits.t[lane], triangle: self.pack_ids[leaf][lane], b1: hits.b1[lane], b2: hits.b2[lane] })
+    }
+
     /// Whether anything blocks the segment origin + t·dir, t in (0, tmax).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
         self.occluded_except(origin, dir, tmax, u32::MAX)

@@ -117,6 +117,27 @@ impl Lens<'_> {
         if cos > 0.0 { 1.0 / (self.pixel_area * cos * cos * cos) } else { 0.0 }
     }
 
+    /// Where on the image (in pixels, as `ray` takes them) the point at
+    /// offset `v` from the camera appears, wherever that is; None behind
+    /// the camera or level with it.
+    #[inline]
+    pub fn image_point(&self, v: Vec3) -> Option<Vec2> {
+        let c = self.camera;
+        let z = v.dot(c.forward);
+        (z > 0.0).then(|| Vec2::new((v.dot(c.right) / (z * self.tan_half * self.aspect) + 1.0) * 0.5 * self.width, (1.0 - v.dot(c.up) / (z * self.tan_half)) * 0.5 * self.height))
+    }
+
+    /// The camera's forward axis: what `image_point`'s depth is along.
+    pub fn forward(&self) -> Vec3 {
+        self.camera.forward
+    }
+
+    /// The distance from the camera, per unit of depth along `forward`,
+    /// of the frustum's farthest corner.
+    pub fn corner_stretch(&self) -> f32 {
+        (1.0 + self.tan_half * self.tan_half * (1.0 + self.aspect * self.aspect)).sqrt()
+    }
+
     /// The pixel a point appears in, if any: the inverse of `ray`.
     pub fn project(&self, p: Vec3) -> Option<Seen> {
         let c = self.camera;

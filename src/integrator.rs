@@ -52,6 +52,7 @@
 //! samples (caustics).
 
 use crate::accel::{Accel, Hit};
+use crate::camera_hits::FirstHit;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::features::{Features, Kernel};
 use crate::light_paths::{carries_light_paths, ConnectionVertex};
@@ -104,6 +105,10 @@ pub struct Context<'a> {
     /// Where a benchmark keeps the rays traced (traversal_bench.rs); None
     /// in every render a user asks for.
     pub ray_log: Option<RayLog>,
+    /// Find camera rays' first hits among the triangles binned to their
+    /// tile (camera_hits.rs) where that is cheaper than the BVH; tests
+    /// turn it off to compare.
+    pub bin_camera_rays: bool,
     /// `light_paths_pay`, found once when first asked.
     light_paths_pay: std::sync::OnceLock<bool>,
 }
@@ -115,7 +120,7 @@ impl<'a> Context<'a> {
         let (lamps, lamp_time) = Accel::build_subset(&scene.triangles, &lamps);
         let lights = Lights::new(scene);
         let features = Features::of(scene);
-        (Context { scene, accel, lamps, lights, features, ray_log: None, light_paths_pay: Default::default() }, surface_time + lamp_time)
+        (Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default() }, surface_time + lamp_time)
     }
 
     /// The kernel these settings run on this scene.
@@ -948,7 +953,9 @@ fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u3
 
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
 /// light parts that are on (features.rs; a part that is off is not tested
-/// for at all).
+/// for at all). `first` is what the ray reaches first where the caller
+/// has found it (camera_hits.rs).
+#[allow(clippy::too_many_arguments)]
 pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
     ctx: &Context,
     prepared: &[Option<[B::Prepared; 2]>],
@@ -959,6 +966,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     settings: &RenderSettings,
     rng: &mut Rng,
     rays: &mut RayCounts,
+    first: FirstHit,
 ) -> Vec3 {
     let max_depth = settings.max_depth;
     let mut l = Vec3::ZERO;
@@ -991,7 +999,12 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // Whether what this ray reaches counts (strategies.rs): the
         // camera's own, or a BSDF sample's after `depth` bounces.
         let seen_kept = settings.strategies.keeps(if depth == 0 { Strategy::Camera } else { Strategy::Bsdf }, depth);
-        let hit = ctx.intersect(o, d, if depth == 0 { RayKind::Camera } else { RayKind::Bounce }, rng);
+        let hit = match (depth, first) {
+            (0, FirstHit::Miss) => None,
+            (0, FirstHit::Slot(slot)) => ctx.accel.hit_in_slot(slot, o, d).or_else(|| ctx.intersect(o, d, RayKind::Camera, rng)),
+            (0, FirstHit::Trace) => ctx.intersect(o, d, RayKind::Camera, rng),
+            _ => ctx.intersect(o, d, RayKind::Bounce, rng),
+        };
         // A lamp in front of the surface adds its light; the ray goes on.
         let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
         if let Some(lamp) = lamp {

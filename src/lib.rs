@@ -2,6 +2,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
+pub mod camera_hits;
 pub mod console;
 pub mod environment;
 pub mod features;

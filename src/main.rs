@@ -290,6 +290,10 @@ fn render(args: RenderArgs) -> Result<()> {
         glint::stderr_line!("scene: {} triangles, {} emissive, {} materials; load {:.3} s, BVH build {:.3} s",
             scene.triangles.len(), ctx.lights.triangles.len(), scene.materials.len(), load_time.as_secs_f64(), build_time.as_secs_f64());
         glint::stderr_line!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
+        match stats.camera_tests {
+            0.0 => glint::stderr_line!("camera rays' first hits: through the BVH"),
+            tests => glint::stderr_line!("camera rays' first hits: binned triangles, {tests:.1} tests a pixel sample"),
+        }
         glint::stderr_line!("time: {:.5} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
         glint::stderr_line!("discarded non-finite samples: {}", stats.discarded);
         if let Some(kib) = glint::memory::peak_rss_kib() {

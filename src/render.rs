@@ -4,6 +4,7 @@
 //! split of its samples into passes up to the rounding of the sums.
 
 use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf, WithGlass};
+use crate::camera_hits::{CameraHits, FirstHit, TileRays};
 use crate::features::{FeatureMode, KernelBsdf};
 use crate::integrator::{prepare_materials, radiance, Context, LightVertices, RayCounts};
 use crate::light_paths::PER_SAMPLE;
@@ -111,12 +112,16 @@ pub struct PassStats {
     /// Samples whose radiance was NaN or infinite, dropped here. A correct
     /// integrator never produces one; the tests assert this stays zero.
     pub discarded: u64,
+    /// Ray-triangle tests per pixel sample that found the camera rays'
+    /// first hits (camera_hits.rs); 0 where the BVH found them.
+    pub camera_tests: f32,
 }
 
 impl PassStats {
     pub fn add(&mut self, o: &PassStats) {
         self.rays.add(&o.rays);
         self.discarded += o.discarded;
+        self.camera_tests = self.camera_tests.max(o.camera_tests);
     }
 }
 
@@ -201,6 +206,11 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // Light tracing (light_tracing.rs): subpaths per sample index that
     // reach the camera, n_T.
     let tracing = (connect && settings.light_tracing).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
+    // Camera rays' first hits found without the BVH where that is
+    // cheaper; a benchmark's ray log wants every ray through the BVH, and
+    // surfaces with alpha are decided ray by ray.
+    let camera_hits = (ctx.bin_camera_rays && ctx.ray_log.is_none() && ctx.features.alpha == 0).then(|| CameraHits::new(&ctx.accel, &ctx.scene.triangles, &lens, w, h, TILE, samples.len() as u32)).flatten();
+    total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
     let mut start = samples.start;
     while start < samples.end {
         let range = start..(start + chunk).min(samples.end);
@@ -222,7 +232,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         let bands: Vec<Mutex<&mut [Vec3]>> = pass_sum.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
         let results: Vec<Option<PassStats>> = tiles
             .par_iter()
-            .map(|&(x0, y0)| {
+            .map_init(|| (TileRays::new(TILE), Vec::with_capacity((TILE * TILE) as usize)), |(rays, rngs), &(x0, y0)| {
                 if cancel.load(Ordering::Relaxed) {
                     return None;
                 }
@@ -236,25 +246,31 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 // going through a pixel's samples first had every pick read
                 // from a different sample index's set. Each pixel's sum
                 // adds its samples in the same order either way.
-                // A pixel sample's numbers and camera ray are made while
-                // the sample before it is traced: they are a chain of
-                // hashes and multiplies (rng.rs) that the camera ray
-                // would otherwise wait for.
-                let camera_ray = |x: u32, y: u32, s: u32| {
-                    let pixel = y as u64 * w as u64 + x as u64;
-                    let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, pixel, s as u64);
-                    let jitter = rng.next_2d();
-                    let (o, d) = lens.ray(Vec2::new(x as f32, y as f32) + jitter);
-                    (rng, o, d)
-                };
-                let tile_pixels = tw as u32 * (y1 - y0);
-                let mut next = camera_ray(x0, y0, range.start);
+                let tile_pixels = (tw as u32 * (y1 - y0)) as usize;
                 for s in range.clone() {
                     let vertices = light_vertices.as_ref().map(|v| &v[(s - range.start) as usize]);
-                    for (i, sum) in sums[..tile_pixels as usize].iter_mut().enumerate() {
-                        let (following, following_s) = if i as u32 + 1 < tile_pixels { (i as u32 + 1, s) } else { (0, s + 1) };
-                        let (mut rng, o, d) = std::mem::replace(&mut next, camera_ray(x0 + following % tw as u32, y0 + following / tw as u32, following_s));
-                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, o, d, lens.importance(d), settings, &mut rng, &mut stats.rays);
+                    // The tile's camera rays first: their numbers are
+                    // chains of hashes and multiplies (rng.rs), which run
+                    // side by side here; then their first hits, together
+                    // where camera_hits.rs finds them.
+                    rngs.clear();
+                    for i in 0..tile_pixels as u32 {
+                        let (x, y) = (x0 + i % tw as u32, y0 + i / tw as u32);
+                        let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
+                        let jitter = rng.next_2d();
+                        rays.set(i as usize, lens.ray(Vec2::new(x as f32, y as f32) + jitter).1);
+                        rngs.push(rng);
+                    }
+                    if let Some(hits) = &camera_hits {
+                        if s == range.start {
+                            hits.face(x0, y0, tw as u32, y1 - y0, rays);
+                        }
+                        hits.nearest(tw as u32, y1 - y0, rays);
+                    }
+                    for (i, (sum, rng)) in sums[..tile_pixels].iter_mut().zip(rngs.iter_mut()).enumerate() {
+                        let d = rays.dir(i);
+                        let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
+                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, lens.position(), d, lens.importance(d), settings, rng, &mut stats.rays, first);
                         if l.is_finite() {
                             *sum += l;
                         } else {

@@ -99,6 +99,23 @@ fn images_are_reproducible_across_threads_and_pass_splits() {
     assert_ne!(a, e, "a different seed must give different noise");
 }
 
+/// Camera rays' first hits found among the triangles binned to their tile
+/// (camera_hits.rs) give the BVH's image: the Cornell box, and the lamp
+/// hall, whose camera stands inside and whose walls reach behind it.
+/// Pixels may differ only where a ray meets two surfaces at the same
+/// distance to rounding (either is right): at most 1 in 1,000.
+#[test]
+fn binned_camera_rays_give_the_bvhs_image() {
+    for (scene, what) in [(cornell_box(), "Cornell box"), (common::lamp_hall(), "lamp hall")] {
+        let s = RenderSettings { mis: true, ..settings(96, 64, 4, 8, 9) };
+        let (binned, with) = render(&scene, &s, 2);
+        let (traced, without, _) = common::render_prepared(&scene, &s, 2, |ctx| ctx.bin_camera_rays = false);
+        assert!(with.camera_tests > 0.0 && without.camera_tests == 0.0, "{what}: {} / {}", with.camera_tests, without.camera_tests);
+        let differ = binned.iter().zip(&traced).filter(|(a, b)| a != b).count();
+        assert!(differ * 1000 <= binned.len(), "{what}: {differ} pixels differ");
+    }
+}
+
 #[test]
 fn cancelled_pass_leaves_the_film_untouched() {
     let scene = cornell_box();
