@@ -320,7 +320,12 @@ fn traversal_report(ctx: &mut Context, settings: &glint::render::RenderSettings,
         let same = 100.0 * r.agree as f64 / r.rays.max(1) as f64;
         glint::stderr_line!("  {:<6} {:>9} rays: {:.2} Mrays/s, obvhs alone {:.2} ({share:.0}%); same result on {same:.2}%", format!("{kind:?}").to_lowercase(), r.rays, r.glint, r.obvhs);
     }
-    glint::stderr_line!("traversal share of the render's thread time: {:.0}%", 100.0 * traversal_share(&rates, &stats.rays, seconds, threads));
+    // The render found its camera rays' first hits without the BVH where
+    // it binned them (camera_hits.rs): they are no part of its traversal.
+    let binned = stats.camera_tests > 0.0;
+    let counts = glint::integrator::RayCounts { camera: if binned { 0 } else { stats.rays.camera }, ..stats.rays };
+    let note = if binned { " (camera rays left out: the render binned them)" } else { "" };
+    glint::stderr_line!("traversal share of the render's thread time: {:.0}%{note}", 100.0 * traversal_share(&rates, &counts, seconds, threads));
     Ok(())
 }
 
