@@ -1,5 +1,6 @@
 //! Glint: a physically based path tracer for glTF 2.0 scenes.
 pub mod accel;
+pub mod affinity;
 pub mod bsdf;
 pub mod camera;
 pub mod camera_hits;

@@ -216,9 +216,17 @@ fn main() {
 }
 
 fn thread_pool(threads: Option<u32>) -> Result<rayon::ThreadPool> {
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = threads {
-        pool = pool.num_threads(t as usize);
+    // As many workers as CPUs unless told (rayon's default, named here
+    // for the pinning below).
+    let workers = threads.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), |t| t as usize);
+    let mut pool = rayon::ThreadPoolBuilder::new().num_threads(workers);
+    // One worker to a CPU where the pool fills the CPUs (affinity.rs).
+    if let Some(allowed) = glint::affinity::allowed_cpus() {
+        pool = pool.start_handler(move |i| {
+            if let Some(cpu) = glint::affinity::cpu_for(i, workers, &allowed) {
+                glint::affinity::pin_current_thread(cpu);
+            }
+        });
     }
     pool.build().context("cannot start worker threads")
 }
