@@ -251,7 +251,10 @@ fn render(args: RenderArgs) -> Result<()> {
     let threads = pool.current_num_threads();
 
     let (mut ctx, build_time) = Context::new(&scene);
-    glint::stderr_line!("{}", ctx.features_line(&settings));
+    // On the render's own workers: the line's light-path rule traces rays
+    // in parallel (light_paths::landing), which outside the pool had
+    // started rayon's global one beside it.
+    glint::stderr_line!("{}", pool.install(|| ctx.features_line(&settings)));
     if !settings.strategies.is_all() {
         glint::stderr_line!("a part of the image: the light of {}", settings.strategies);
     }
