@@ -166,14 +166,10 @@ impl Accel {
         best
     }
 
-    /// Every triangle of this BVH as (slot, scene triangle): a slot names
-    /// the leaf and lane the traversal tests it in (`hit_in_slot`).
-    pub fn slots(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
-        self.slots_in(0..self.leaf_count())
-    }
-
-    /// `slots` of the leaves in `leaves` alone.
-    pub fn slots_in(&self, leaves: std::ops::Range<usize>) -> impl Iterator<Item = (u32, u32)> + '_ {
+    /// The triangles of the leaves in `leaves` (of `leaf_count`) as (slot,
+    /// scene triangle): a slot names the leaf and lane the traversal tests
+    /// it in (`hit_in_slot`).
+    pub fn slots(&self, leaves: std::ops::Range<usize>) -> impl Iterator<Item = (u32, u32)> + '_ {
         // Leaves are filled from lane 0: a leaf's lanes up to its count.
         let first = leaves.start;
         self.bvh.leaves[leaves.clone()].iter().zip(&self.pack_ids[leaves]).enumerate().flat_map(move |(i, (&(_, count), lanes))| lanes[..count as usize].iter().enumerate().map(move |(lane, &t)| (((first + i) * 4 + lane) as u32, t)))

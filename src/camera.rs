@@ -144,12 +144,10 @@ impl Lens<'_> {
         let v = p - c.position;
         let distance = v.length();
         let dir = v / distance;
-        let cos = dir.dot(c.forward);
-        if !(cos > 0.0 && distance.is_finite()) {
+        if !distance.is_finite() {
             return None;
         }
-        let x = (dir.dot(c.right) / (cos * self.tan_half * self.aspect) + 1.0) * 0.5 * self.width;
-        let y = (1.0 - dir.dot(c.up) / (cos * self.tan_half)) * 0.5 * self.height;
+        let Vec2 { x, y } = self.image_point(dir)?;
         if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
             return None;
         }

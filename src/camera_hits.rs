@@ -129,6 +129,7 @@ impl<'a> CameraHits<'a> {
     /// The triangles of `accel` binned to the tiles of `tile` pixels their
     /// images overlap, as `lens` sees them; None where the BVH would find
     /// the hits sooner.
+    ///
     /// `samples` per pixel are to be found with it: binning costs about
     /// as much per triangle as the BVH saves per ray, so it waits for
     /// twice as many rays as triangles.
@@ -152,7 +153,7 @@ impl<'a> CameraHits<'a> {
         // The first half's list has room for the second's, which joins it.
         let bin = |leaves: Range<usize>, room: usize| {
             let (mut binned, mut tests) = (Vec::with_capacity(4 * room), 0.0);
-            for (slot, triangle) in accel.slots_in(leaves) {
+            for (slot, triangle) in accel.slots(leaves) {
                 if let Some(rect) = image_rect(lens, triangles[triangle as usize].p().map(|p| p - origin), width, height) {
                     tests += (rect[2] - rect[0] + 1) as f64 * (rect[3] - rect[1] + 1) as f64;
                     if tests > budget {
