@@ -198,8 +198,12 @@ impl<'a> CameraHits<'a> {
     }
 
     /// The triangles of the tile at (x0, y0), `tw` pixels wide and `th`
-    /// high, as the camera sees them, into `rays`: once for all of the
-    /// tile's samples.
+    /// high, as the camera sees them, into `rays`: once for the samples a
+    /// pass takes of the tile together (four sample indices with light
+    /// subpaths, all of them without), recomputed for the next four rather
+    /// than kept for every tile: one a binned triangle and tile, about
+    /// 13,600 on the 256² gold sphere, against the 262,144 camera rays of
+    /// its four samples.
     pub fn face(&self, x0: u32, y0: u32, tw: u32, th: u32, rays: &mut TileRays) {
         rays.facing.clear();
         let k = ((y0 / self.tile) * self.tiles_x + x0 / self.tile) as usize;
