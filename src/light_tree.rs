@@ -280,10 +280,38 @@ impl WideNode {
     }
 }
 
-/// Left to right, as `sample`'s running sums add them.
+/// A node's lanes summed as a binary tree: pairs, quads, both halves.
 #[inline(always)]
 fn sum(values: &[f32; WIDTH]) -> f32 {
-    values.iter().fold(0.0, |a, &v| a + v)
+    starts(values).1
+}
+
+/// Where each lane's interval of [0, total) starts, and the total, all
+/// from the sums of a binary tree over the lanes, three additions deep,
+/// where running sums left to right had been a chain of eight dependent
+/// ones before a pick could start. Rounding is monotone, so the starts
+/// never decrease, and a lane whose part is zero starts where the next one
+/// does (x + 0 = x): it is never picked but as the last lane (`pick`).
+#[inline(always)]
+fn starts(v: &[f32; WIDTH]) -> ([f32; WIDTH], f32) {
+    let pairs = [v[0] + v[1], v[2] + v[3], v[4] + v[5], v[6] + v[7]];
+    let quads = [pairs[0] + pairs[1], pairs[2] + pairs[3]];
+    let six = quads[0] + pairs[2];
+    ([0.0, v[0], pairs[0], pairs[0] + v[2], quads[0], quads[0] + v[4], six, six + v[6]], quads[0] + quads[1])
+}
+
+/// The lane of `parts` whose interval holds `target` in [0, total), and
+/// target's offset into it: the count of starts after the first at or
+/// below it, compares side by side.
+#[inline(always)]
+fn pick(parts: &[f32; WIDTH], starts: &[f32; WIDTH], target: f32) -> (usize, f32) {
+    let mut lane = starts[1..].iter().map(|&s| (s <= target) as usize).sum::<usize>();
+    if parts[lane] <= 0.0 {
+        // Past the last lane with a part (the total is added in another
+        // order than the last start): that lane.
+        lane = parts.iter().rposition(|&w| w > 0.0).unwrap_or(0);
+    }
+    (lane, target - starts[lane])
 }
 
 pub struct LightTree {
@@ -391,25 +419,9 @@ impl LightTree {
         loop {
             let node = &self.nodes[index];
             let (parts, total) = node.parts::<SPREAD>(p, n, self.spread_lanes::<SPREAD>(index));
-            // The lane whose interval of [0, total) holds u·total: the
-            // count of running sums at or below it, without a branch a
-            // lane (they mispredicted as often as not); one whose part is
-            // 0 has the running sum of the lane before and is never it.
-            let target = u * total;
-            let mut below = [0.0f32; WIDTH];
-            let mut lane = 0;
-            let mut running = 0.0f32;
-            for i in 0..WIDTH {
-                below[i] = running;
-                running += parts[i];
-                lane += (running <= target) as usize;
-            }
-            if lane == WIDTH {
-                // u·total rounded up to the sum: the last lane with a part.
-                lane = parts.iter().rposition(|&w| w > 0.0).unwrap_or(0);
-            }
+            let (lane, offset) = pick(&parts, &starts(&parts).0, u * total);
             let part = parts[lane];
-            u = ((target - below[lane]) / part).clamp(0.0, ONE_BELOW);
+            u = (offset / part).clamp(0.0, ONE_BELOW);
             probability *= part / total;
             let child = node.child[lane];
             if child & LEAF != 0 {

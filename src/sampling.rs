@@ -2,7 +2,7 @@
 
 use glam::Vec2;
 use crate::Vec3;
-use std::f32::consts::{FRAC_PI_4, PI};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
 /// An orthonormal basis (t, b, n) around a unit normal n (Duff et al.
 /// 2017, branchless), kept as the rows of the matrix whose columns are t,
@@ -82,7 +82,9 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
 
 #[inline]
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) / PI
+    // Times 1/π: a division by π is not folded into a product (its
+    // rounding differs), and a diffuse bounce's pdf waited on it.
+    cos_theta.max(0.0) * FRAC_1_PI
 }
 
 /// Uniform barycentrics (b1, b2) on a triangle; b0 = 1 − b1 − b2.

@@ -23,7 +23,7 @@ use crate::material::Surface;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::Vec2;
 use crate::Vec3;
-use std::f32::consts::PI;
+use std::f32::consts::{FRAC_1_PI, PI};
 
 /// One sampled direction (pbrt's BSDFSample).
 #[derive(Clone, Copy, Debug)]
@@ -79,7 +79,7 @@ pub mod lambert {
         if cos_theta(wo) <= 0.0 || cos_theta(wi) <= 0.0 {
             return Vec3::ZERO;
         }
-        albedo / PI
+        albedo * FRAC_1_PI
     }
 
     pub fn sample(u: Vec2) -> Vec3 {
