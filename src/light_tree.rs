@@ -292,6 +292,8 @@ fn sum(values: &[f32; WIDTH]) -> f32 {
 /// ones before a pick could start. Rounding is monotone, so the starts
 /// never decrease, and a lane whose part is zero starts where the next one
 /// does (x + 0 = x): it is never picked but as the last lane (`pick`).
+/// So does a part below the rounding of the sum before it, as with
+/// running sums: a share under 1e-7 of its neighbour's, never picked.
 #[inline(always)]
 fn starts(v: &[f32; WIDTH]) -> ([f32; WIDTH], f32) {
     let pairs = [v[0] + v[1], v[2] + v[3], v[4] + v[5], v[6] + v[7]];
@@ -888,6 +890,52 @@ mod tests {
         assert_eq!(one.sample(Vec3::X, Vec3::ZERO, 0.7), (0, 1.0, 0.7));
         assert_eq!(one.probability(0, Vec3::X, Vec3::ZERO), 1.0);
         assert!(LightTree::new(&[]).is_none());
+    }
+
+    /// A node's starts never decrease, every target in [0, total) lands
+    /// in a lane with a part and within its interval, and each lane's
+    /// interval is as wide as its part: lanes of zero anywhere (first,
+    /// last, runs of them), parts of very different sizes, and targets at
+    /// the ends, where the total (added in its own order) can round past
+    /// the last start.
+    #[test]
+    fn a_pick_lands_in_a_lane_with_a_part() {
+        let mut rng = Rng::new(5, 0);
+        let mut parts_of = |k: usize| -> [f32; WIDTH] {
+            std::array::from_fn(|i| match (k + i * 7) % 5 {
+                0 => 0.0,
+                1 => rng.next_f32() * 1e-6,
+                2 => rng.next_f32() * 1e6,
+                _ => rng.next_f32(),
+            })
+        };
+        let mut cases: Vec<[f32; WIDTH]> = (0..2000).map(&mut parts_of).collect();
+        cases.push([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        cases.push([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        cases.push([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.0]);
+        cases.push([3.0e-8, 1.0, 1.0e8, 0.0, 1.0, 3.0, 0.0, 0.0]);
+        for parts in cases {
+            let (starts, total) = starts(&parts);
+            if !(total > 0.0) {
+                continue;
+            }
+            assert!(starts.windows(2).all(|w| w[0] <= w[1]), "{parts:?}: {starts:?}");
+            assert_eq!(total, sum(&parts));
+            for target in [0.0, total * 0.25, total * 0.5, total * ONE_BELOW, f32::from_bits(total.to_bits() - 1)] {
+                let (lane, offset) = pick(&parts, &starts, target);
+                assert!(parts[lane] > 0.0, "{parts:?} at {target}: lane {lane}");
+                // Within the sums' rounding (`sample` clamps u to [0, 1)).
+                assert!(offset >= 0.0 && offset <= parts[lane] + 4.0 * f32::EPSILON * total, "{parts:?} at {target}: lane {lane}, offset {offset}");
+            }
+            // Each lane is picked for the start of its interval, where it
+            // has one: a part below the rounding of the sum before it has
+            // none (as with running sums; its probability is then below
+            // 1e-7 of its neighbour's).
+            let end = |i: usize| if i + 1 < WIDTH { starts[i + 1] } else { total };
+            for lane in (0..WIDTH).filter(|&i| parts[i] > 0.0 && end(i) > starts[i]) {
+                assert_eq!(pick(&parts, &starts, starts[lane]).0, lane, "{parts:?}");
+            }
+        }
     }
 
     impl LightTree {
