@@ -133,6 +133,7 @@ impl<'a> Context<'a> {
         let light_paths = if self.traces_light_paths(settings) { " + light paths" } else { "" };
         let tree = match self.lights.tree_size() {
             0 => String::new(),
+            n if self.lights.tree_cached() => format!(" + light tree ({n} lights, picked from a grid)"),
             n => format!(" + light tree ({n} lights)"),
         };
         format!("features: {}; kernel: {}{light_paths}{tree}", self.features, self.kernel(settings))

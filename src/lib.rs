@@ -11,6 +11,7 @@ pub mod integrator;
 pub mod job;
 pub mod lamps;
 pub mod light_paths;
+pub mod light_cache;
 pub mod light_tree;
 pub mod light_tracing;
 pub mod lights;

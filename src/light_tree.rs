@@ -26,6 +26,7 @@
 //! its light sample, the MIS density of a BSDF ray's hit from it
 //! (`Previous::light_side`) and a light subpath's reverse density at y1.
 
+use crate::light_cache::LightCache;
 use crate::Vec3;
 
 /// Which way some emitters shine: their normals lie within `cos_o` of
@@ -295,7 +296,7 @@ fn sum(values: &[f32; WIDTH]) -> f32 {
 /// So does a part below the rounding of the sum before it, as with
 /// running sums: a share under 1e-7 of its neighbour's, never picked.
 #[inline(always)]
-fn starts(v: &[f32; WIDTH]) -> ([f32; WIDTH], f32) {
+pub(crate) fn starts(v: &[f32; WIDTH]) -> ([f32; WIDTH], f32) {
     let pairs = [v[0] + v[1], v[2] + v[3], v[4] + v[5], v[6] + v[7]];
     let quads = [pairs[0] + pairs[1], pairs[2] + pairs[3]];
     let six = quads[0] + pairs[2];
@@ -306,7 +307,7 @@ fn starts(v: &[f32; WIDTH]) -> ([f32; WIDTH], f32) {
 /// target's offset into it: the count of starts after the first at or
 /// below it, compares side by side.
 #[inline(always)]
-fn pick(parts: &[f32; WIDTH], starts: &[f32; WIDTH], target: f32) -> (usize, f32) {
+pub(crate) fn pick<const N: usize>(parts: &[f32; N], starts: &[f32; N], target: f32) -> (usize, f32) {
     let mut lane = starts[1..].iter().map(|&s| (s <= target) as usize).sum::<usize>();
     if parts[lane] <= 0.0 {
         // Past the last lane with a part (the total is added in another
@@ -326,6 +327,8 @@ pub struct LightTree {
     /// a 32-byte lane more had made 3% slower to walk in the lamp hall,
     /// without a Spread.
     cos_spread: Vec<[f32; WIDTH]>,
+    /// Picks from a grid where one was asked for (`cache_over`).
+    cache: Option<LightCache>,
 }
 
 impl LightTree {
@@ -333,7 +336,7 @@ impl LightTree {
     /// None without lights.
     pub fn new(lights: &[TreeLight]) -> Option<Self> {
         let binary = binary_tree(lights)?;
-        let mut tree = LightTree { nodes: vec![WideNode::empty(u32::MAX)], leaf_of: vec![0; lights.len()], cos_spread: vec![[0.0; WIDTH]] };
+        let mut tree = LightTree { nodes: vec![WideNode::empty(u32::MAX)], leaf_of: vec![0; lights.len()], cos_spread: vec![[0.0; WIDTH]], cache: None };
         // (wide node, the binary node it opens): a stack, as in the build.
         let mut work = vec![(0usize, 0usize)];
         while let Some((wide, node)) = work.pop() {
@@ -357,6 +360,20 @@ impl LightTree {
         Some(tree)
     }
 
+    /// Picks at points within `lo`..`hi` from a grid (light_cache.rs),
+    /// where the tree walks more than one node and the cache holds every
+    /// light; elsewhere, and at points outside the grid, the tree's.
+    pub fn cache_over(&mut self, lights: &[TreeLight], lo: Vec3, hi: Vec3) {
+        if lights.len() > WIDTH {
+            self.cache = LightCache::new(lights, lo, hi);
+        }
+    }
+
+    /// Whether picks come from a grid where they can (`cache_over`).
+    pub fn cached(&self) -> bool {
+        self.cache.is_some()
+    }
+
     /// Whether a light has a Spread.
     #[inline(always)]
     fn spread(&self) -> bool {
@@ -375,6 +392,9 @@ impl LightTree {
     /// index, the probability of picking it, and u rescaled within the pick
     /// to a fresh number in [0, 1).
     pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
+        if let Some(picked) = self.cache.as_ref().and_then(|c| c.sample(p, n, u)) {
+            return picked;
+        }
         if self.spread() {
             return self.sample_spread(p, n, u);
         }
@@ -436,6 +456,9 @@ impl LightTree {
     /// The probability with which `sample` picks `light` for a point at
     /// `p` and normal `n`.
     pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> f32 {
+        if let Some(probability) = self.cache.as_ref().and_then(|c| c.probability(light, p, n)) {
+            return probability;
+        }
         if self.spread() {
             return self.probability_spread(light, p, n);
         }
@@ -647,18 +670,24 @@ mod tests {
         }
     }
 
+    /// `count` lights in a 20 m cube, of powers from 0.01 to 100, a share
+    /// `points` of them points and the rest panels facing about down.
+    fn random_lights(rng: &mut Rng, count: usize, points: f32) -> Vec<TreeLight> {
+        (0..count)
+            .map(|_| {
+                let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 20.0 - 10.0;
+                let w = 0.01 + 100.0 * rng.next_f32() * rng.next_f32();
+                if rng.next_f32() < points { point(c, w) } else { panel(c, Vec3::new(rng.next_f32() - 0.5, -1.0, rng.next_f32() - 0.5).normalize(), w) }
+            })
+            .collect()
+    }
+
     #[test]
     fn picks_match_probabilities_for_random_lights() {
         let mut rng = Rng::new(7, 1);
         for case in 0..20 {
             let count = 1 + case * 7;
-            let lights: Vec<TreeLight> = (0..count)
-                .map(|_| {
-                    let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 20.0 - 10.0;
-                    let w = 0.01 + 100.0 * rng.next_f32() * rng.next_f32();
-                    if rng.next_f32() < 0.5 { point(c, w) } else { panel(c, Vec3::new(rng.next_f32() - 0.5, -1.0, rng.next_f32() - 0.5).normalize(), w) }
-                })
-                .collect();
+            let lights = random_lights(&mut rng, count, 0.5);
             let tree = LightTree::new(&lights).unwrap();
             for k in 0..4 {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 30.0 - 15.0;
@@ -666,6 +695,76 @@ mod tests {
                 assert_consistent(&tree, p, n, &format!("{count} lights at {p}, normal {n}"));
             }
         }
+    }
+
+    /// Picks from a grid over a box match their probabilities at points
+    /// inside it and outside it (the tree's there), with and without a
+    /// receiver's normal; a grid is made for 9 to 32 lights only.
+    #[test]
+    fn grid_picks_match_probabilities() {
+        let mut rng = Rng::new(9, 1);
+        for count in [9, 20, 32] {
+            let lights = random_lights(&mut rng, count, 0.3);
+            let plain = LightTree::new(&lights).unwrap();
+            let mut tree = LightTree::new(&lights).unwrap();
+            tree.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0));
+            assert!(tree.cached());
+            for k in 0..6 {
+                let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 24.0 - 12.0;
+                let n = if k % 2 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
+                assert_consistent(&tree, p, n, &format!("{count} lights, grid, at {p}, normal {n}"));
+            }
+            let outside = Vec3::new(30.0, 0.0, 0.0);
+            assert_consistent(&tree, outside, Vec3::X, "outside the grid");
+            assert_eq!(tree.probability(3, outside, Vec3::X), plain.probability(3, outside, Vec3::X));
+        }
+        for count in [8, 33] {
+            let lights: Vec<TreeLight> = (0..count).map(|i| point(Vec3::new(i as f32, 0.0, 0.0), 1.0)).collect();
+            let mut tree = LightTree::new(&lights).unwrap();
+            tree.cache_over(&lights, Vec3::splat(-1.0), Vec3::splat(40.0));
+            assert!(!tree.cached(), "{count} lights");
+        }
+    }
+
+    /// A grid never takes every pick from a light that can light the
+    /// point: wherever some point of a lamp lies above the receiver's
+    /// plane and in front of the lamp, the lamp keeps a probability, at
+    /// points all over the grid, next to the lamps and in their planes.
+    #[test]
+    fn a_grid_keeps_every_light_that_reaches_the_point() {
+        let mut rng = Rng::new(13, 2);
+        let lights: Vec<TreeLight> = (0..24)
+            .map(|i| {
+                let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 8.0 - 4.0;
+                let n = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y);
+                if i % 6 == 0 { point(c, 1.0) } else { panel(c, n, 0.1 + rng.next_f32()) }
+            })
+            .collect();
+        let mut tree = LightTree::new(&lights).unwrap();
+        tree.cache_over(&lights, Vec3::splat(-5.0), Vec3::splat(5.0));
+        let mut checked = 0;
+        for k in 0..3000 {
+            // Every third point next to a lamp, within its box's reach.
+            let p = if k % 3 == 0 {
+                let l = &lights[k % lights.len()];
+                0.5 * (l.lo + l.hi) + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.3
+            } else {
+                Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0 - 5.0
+            };
+            let n = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y);
+            for (i, l) in lights.iter().enumerate() {
+                let reaches = (0..64).any(|_| {
+                    let y = l.lo + (l.hi - l.lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                    let front = l.facing.is_none_or(|(normal, both)| both || normal.dot(p - y) > 0.0);
+                    n.dot(y - p) > 0.0 && front
+                });
+                if reaches {
+                    checked += 1;
+                    assert!(tree.probability(i, p, n) > 0.0, "light {i} at {p}, normal {n}");
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
     }
 
     /// The walk as this CPU runs it (compiled for AVX-512 where it has

@@ -155,7 +155,12 @@ impl LocalTree {
         if items.len() < 2 {
             return None;
         }
-        Some(LocalTree { tree: LightTree::new(&lights)?, items, of_emitter, of_punctual })
+        let mut tree = LightTree::new(&lights)?;
+        // Shading points lie on the surfaces; a point rounded off their box
+        // is the tree's.
+        let (lo, hi) = crate::scene::bounds(&scene.triangles);
+        tree.cache_over(&lights, lo, hi);
+        Some(LocalTree { tree, items, of_emitter, of_punctual })
     }
 
     /// The density per unit area of the tree picking emitter `k` and a
@@ -515,6 +520,11 @@ impl Lights {
     /// How many lights the light tree holds; 0 without one.
     pub fn tree_size(&self) -> usize {
         self.tree.as_ref().map_or(0, |t| t.tree.len())
+    }
+
+    /// Whether the tree's picks come from a grid (light_cache.rs).
+    pub fn tree_cached(&self) -> bool {
+        self.tree.as_ref().is_some_and(|t| t.tree.cached())
     }
 
     pub fn is_empty(&self) -> bool {
