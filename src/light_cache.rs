@@ -137,11 +137,6 @@ impl LightCache {
     /// the tree must pick.
     #[inline]
     pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
-        self.sample_on(p, n, u)
-    }
-
-    #[inline(always)]
-    fn sample_on(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
         let (parts, sums, total) = self.parts(p, n)?;
         let group_starts = [0.0, sums[0], sums[0] + sums[1], (sums[0] + sums[1]) + sums[2]];
         let (group, offset) = pick(&sums, &group_starts, u * total);
@@ -154,11 +149,6 @@ impl LightCache {
     /// None where the tree picks.
     #[inline]
     pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> Option<f32> {
-        self.probability_on(light, p, n)
-    }
-
-    #[inline(always)]
-    fn probability_on(&self, light: usize, p: Vec3, n: Vec3) -> Option<f32> {
         let (parts, _, total) = self.parts(p, n)?;
         Some(parts[light / WIDTH][light % WIDTH] / total)
     }
