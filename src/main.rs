@@ -250,10 +250,11 @@ fn render(args: RenderArgs) -> Result<()> {
     let pool = thread_pool(args.options.threads)?;
     let threads = pool.current_num_threads();
 
-    let (mut ctx, build_time) = Context::new(&scene);
-    // On the render's own workers: the line's light-path rule traces rays
-    // in parallel (light_paths::landing), which outside the pool had
-    // started rayon's global one beside it.
+    // On the render's own workers, as is all that runs in parallel before
+    // the render (a light grid's cells, light_cache.rs; the features
+    // line's light-path rule, light_paths::landing): outside the pool it
+    // would start rayon's global one beside it.
+    let (mut ctx, build_time) = pool.install(|| Context::new(&scene));
     glint::stderr_line!("{}", pool.install(|| ctx.features_line(&settings)));
     if !settings.strategies.is_all() {
         glint::stderr_line!("a part of the image: the light of {}", settings.strategies);
