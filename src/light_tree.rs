@@ -361,10 +361,12 @@ impl LightTree {
     }
 
     /// Picks at points within `lo`..`hi` from a grid (light_cache.rs),
-    /// where the tree walks more than one node and the cache holds every
-    /// light; elsewhere, and at points outside the grid, the tree's.
+    /// where the tree walks more than one node, the cache holds every
+    /// light and none has a Spread (whose cone the tree bounds a child by,
+    /// and a grid's cell would not); elsewhere, and at points outside the
+    /// grid, the tree's.
     pub fn cache_over(&mut self, lights: &[TreeLight], lo: Vec3, hi: Vec3) {
-        if lights.len() > WIDTH {
+        if lights.len() > WIDTH && !self.spread() {
             self.cache = LightCache::new(lights, lo, hi);
         }
     }
@@ -699,7 +701,8 @@ mod tests {
 
     /// Picks from a grid over a box match their probabilities at points
     /// inside it and outside it (the tree's there), with and without a
-    /// receiver's normal; a grid is made for 9 to 32 lights only.
+    /// receiver's normal; a grid is made for 9 to 32 lights without a
+    /// Spread only.
     #[test]
     fn grid_picks_match_probabilities() {
         let mut rng = Rng::new(9, 1);
@@ -724,6 +727,11 @@ mod tests {
             tree.cache_over(&lights, Vec3::splat(-1.0), Vec3::splat(40.0));
             assert!(!tree.cached(), "{count} lights");
         }
+        let mut spread = random_lights(&mut rng, 12, 0.0);
+        spread[4].cos_spread = 0.9;
+        let mut tree = LightTree::new(&spread).unwrap();
+        tree.cache_over(&spread, Vec3::splat(-12.0), Vec3::splat(12.0));
+        assert!(!tree.cached(), "a light with a Spread");
     }
 
     /// A grid never takes every pick from a light that can light the
