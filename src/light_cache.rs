@@ -1,7 +1,7 @@
 //! Light picks from a grid over the scene, for a few dozen lights: each
 //! cell holds every light's bound over the whole cell and its distance,
 //! so that a pick at a point is one lookup, a few products a light and a
-//! pick among them — no square root, no division, no walk down a tree
+//! pick among them — no square root or division a light, no walk down a tree
 //! whose every level waits on the one above. In the benchmark's hall of
 //! 32 lamps a light tree's pick (two levels of such bounds) was a quarter
 //! of the render's time.
@@ -18,23 +18,21 @@
 //! Points outside the grid, and cells where no light has a part, are the
 //! tree's (`LightTree::sample` asks the cache first).
 
-use crate::light_tree::{pick, starts, TreeLight};
+use crate::light_tree::{pick, starts, Cone, TreeLight, ONE_BELOW, WIDTH};
 use crate::Vec3;
 use rayon::prelude::*;
 
-/// Lanes of a group, as a light tree's node has them.
-const WIDTH: usize = 8;
-/// Groups of `WIDTH` lights a cell holds: a cache serves up to
-/// `GROUPS * WIDTH` lights.
+/// Groups of `WIDTH` lights (a light tree node's lanes) a cell holds: a
+/// cache serves up to `GROUPS * WIDTH` lights.
 const GROUPS: usize = 4;
-pub const MAX_LIGHTS: usize = GROUPS * WIDTH;
+const MAX_LIGHTS: usize = GROUPS * WIDTH;
 /// About this many cells over the scene's box, as near cubes as its
 /// shape allows (1 MB for 32 lights). In the benchmark's hall (256², 4
 /// seeds, Glint's 512-spp image), against the tree at 16 spp: 1,024
 /// cells −5.6% time and −2.4% relMSE; 4,096, −3.5% and −8.7%; 16,384,
 /// −1.6% and −9.8% (more cells, tighter bounds, but fewer of them in
 /// cache).
-pub const CELLS: f32 = 4096.0;
+const CELLS: f32 = 4096.0;
 
 /// Every light's terms in one cell, a lane each (light k in lane k).
 #[derive(Clone, Copy)]
@@ -61,9 +59,9 @@ pub struct LightCache {
 }
 
 impl LightCache {
-    /// The cache of `lights` over the box `lo`..`hi` (the surfaces' and
-    /// the lights'); None for more than `MAX_LIGHTS`, an empty or infinite
-    /// box.
+    /// The cache of `lights` over the box `lo`..`hi` that shading points
+    /// lie in (the scene's triangles'); None for more than `MAX_LIGHTS`, an
+    /// empty or infinite box.
     pub fn new(lights: &[TreeLight], lo: Vec3, hi: Vec3) -> Option<Self> {
         if lights.is_empty() || lights.len() > MAX_LIGHTS || !(lo.cmple(hi).all() && lo.is_finite() && hi.is_finite()) {
             return None;
@@ -154,8 +152,6 @@ impl LightCache {
     }
 }
 
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
-
 /// A light's bounding sphere: its box's centre and half diagonal.
 fn sphere(light: &TreeLight) -> (Vec3, f32) {
     (0.5 * (light.lo + light.hi), 0.5 * (light.hi - light.lo).length())
@@ -175,7 +171,7 @@ fn cell(lights: &[TreeLight], centre: Vec3, radius: f32) -> Cell {
         // its centre (a widened sphere), and the distance no nearer than
         // the spheres touching.
         let cos = match light.facing {
-            Some((normal, both_ways)) => crate::light_tree::Cone { axis: normal, cos_o: 1.0, sin_o: 0.0, both_ways }.cos_bound(v, dist2, reach * reach),
+            Some((normal, both_ways)) => Cone { axis: normal, cos_o: 1.0, sin_o: 0.0, both_ways }.cos_bound(v, dist2, reach * reach),
             None => 1.0,
         };
         let bound = light.weight * cos / dist2.max(reach * reach).max(f32::MIN_POSITIVE);

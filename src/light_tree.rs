@@ -116,7 +116,7 @@ const BUCKETS: usize = 12;
 /// binary tree the build makes, whose shares are computed together in SIMD
 /// lanes. The binary walk's importance evaluations, two per level with
 /// four square roots each, were a fifth of the lamp hall's time.
-const WIDTH: usize = 8;
+pub(crate) const WIDTH: usize = 8;
 
 /// A node of the binary tree the build makes.
 struct Node {
@@ -575,7 +575,7 @@ fn open(binary: &[Node], node: usize) -> Vec<usize> {
     kids.into_iter().map(|(k, _)| k).collect()
 }
 
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+pub(crate) const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The binary node bounding `lights[order]`.
 fn bound(lights: &[TreeLight], order: &[u32]) -> Node {
