@@ -307,6 +307,10 @@ fn render(args: RenderArgs) -> Result<()> {
             tests => glint::stderr_line!("camera rays' first hits: binned triangles, {tests:.1} tests a pixel sample"),
         }
         glint::stderr_line!("time: {:.5} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
+        let phases = &stats.phases;
+        let (setup, subpaths, paths) = (phases.setup.as_secs_f64(), phases.light_subpaths.as_secs_f64(), phases.camera_paths.as_secs_f64());
+        glint::stderr_line!("time by phase: set-up {setup:.5} s (MIS scale, camera rays' bins), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film's memory, passes)",
+            (seconds - setup - subpaths - paths).max(0.0));
         glint::stderr_line!("discarded non-finite samples: {}", stats.discarded);
         if let Some(kib) = glint::memory::peak_rss_kib() {
             glint::stderr_line!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);

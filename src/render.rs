@@ -17,6 +17,7 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 pub const TILE: u32 = 16;
 /// Sample indices whose light subpaths are traced together: 4 × 1,024
@@ -115,6 +116,20 @@ pub struct PassStats {
     /// Ray-triangle tests per pixel sample that found the camera rays'
     /// first hits (camera_hits.rs); 0 where the BVH found them.
     pub camera_tests: f32,
+    pub phases: Phases,
+}
+
+/// Where a pass's wall time went, phase by phase (`--stats`): what a
+/// 1-spp render's time is made of, which per-sample figures hide.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Phases {
+    /// Once a pass: the materials' prepared lobes, the MIS scale of the
+    /// connections (its own subpaths) and the camera rays' triangle bins.
+    pub setup: Duration,
+    /// Tracing light subpaths and adding light tracing's splats.
+    pub light_subpaths: Duration,
+    /// The tiles: camera paths, their light samples and connections.
+    pub camera_paths: Duration,
 }
 
 impl PassStats {
@@ -122,6 +137,9 @@ impl PassStats {
         self.rays.add(&o.rays);
         self.discarded += o.discarded;
         self.camera_tests = self.camera_tests.max(o.camera_tests);
+        self.phases.setup += o.phases.setup;
+        self.phases.light_subpaths += o.phases.light_subpaths;
+        self.phases.camera_paths += o.phases.camera_paths;
     }
 }
 
@@ -179,6 +197,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     cancel: &AtomicBool,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<PassStats, Cancelled> {
+    let started = Instant::now();
     let (w, h) = (settings.width, settings.height);
     assert_eq!((film.width, film.height), (w, h), "film does not match the settings");
     let prepared = prepare_materials::<B>(ctx.scene);
@@ -211,20 +230,24 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // surfaces with alpha are decided ray by ray.
     let camera_hits = (ctx.bin_camera_rays && ctx.ray_log.is_none() && ctx.features.alpha == 0).then(|| CameraHits::new(&ctx.accel, &ctx.scene.triangles, &lens, w, h, TILE, samples.len() as u32)).flatten();
     total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
+    total.phases.setup = started.elapsed();
     let mut start = samples.start;
     while start < samples.end {
         let range = start..(start + chunk).min(samples.end);
         start = range.end;
         let light_vertices = if connect {
+            let subpaths_started = Instant::now();
             let (vertices, splats, rays) = LightVertices::for_samples::<B>(ctx, &prepared, tracing.as_ref(), settings.seed, range.clone(), per_sample, settings.max_depth, mis_scale);
             total.rays.add(&rays);
             for splat in splats {
                 pass_sum[splat.pixel as usize] += splat.value;
             }
+            total.phases.light_subpaths += subpaths_started.elapsed();
             Some(vertices)
         } else {
             None
         };
+        let tiles_started = Instant::now();
         // Each tile adds its sums into the pass's rows itself, under its
         // band's lock (a band is a row of tiles, so pixels never share a
         // lock holder): the pages of a fresh film are first touched by both
@@ -290,6 +313,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 Some(stats)
             })
             .collect();
+        total.phases.camera_paths += tiles_started.elapsed();
         drop(bands);
         if cancel.load(Ordering::Relaxed) || results.iter().any(Option::is_none) {
             if empty {
