@@ -228,15 +228,41 @@ def black_relmse(ref):
     return errors(np.zeros_like(ref), ref)[0]
 
 
+def relative_time_scatter(glint_rows, target):
+    """The standard error, relative, of the time Glint's curve takes to
+    `target`: that of its first point where the target is at or above
+    its error (the time is that point's), else the larger of the two
+    points' the target lies between; None without `seconds_se`."""
+    points = [r for r in glint_rows if math.isfinite(r.get("seconds_se", math.nan)) and r["seconds"] > 0]
+    if len(points) != len(glint_rows) or not points:
+        return None
+    rse = [r["seconds_se"] / r["seconds"] for r in points]
+    if target >= points[0]["relmse"]:
+        return rse[0]
+    for k in range(len(points) - 1):
+        if points[k + 1]["relmse"] <= target <= points[k]["relmse"]:
+            return max(rse[k], rse[k + 1])
+    return None
+
+
 def peer_rows(name, peer, rows, glint_curve, black):
     """One line a peer's point: its seconds and error, the seconds
     Glint's curve takes to that error and the speed-up, marked where the
     point's error is above a black image's (`black`, against the peer's
-    own reference)."""
+    own reference). Where the rows carry `seconds_se` (the standard error
+    of a point's mean time over its images), the speed-up's standard
+    error follows it (± s): the scatter of the timings within the run,
+    which does not hold a slow spell of the machine that lasts longer
+    than a point's images."""
     lines = [f"{name}: spp | {peer} s | {peer} relMSE | Glint s to that error | speed-up"]
+    glint_rows = [r for r in rows if r["renderer"] == "glint"]
     for r in (r for r in rows if r["renderer"] == peer):
         t = time_to_reach(glint_curve, r["relmse"])
         speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
+        rse_glint = relative_time_scatter(glint_rows, r["relmse"]) if t else None
+        if rse_glint is not None and math.isfinite(r.get("seconds_se", math.nan)) and r["seconds"] > 0:
+            rse = math.hypot(r["seconds_se"] / r["seconds"], rse_glint)
+            speedup += f" ± {r['seconds'] / t * rse:.2f}"
         mark = " (above a black image's error)" if r["relmse"] > black else ""
         lines.append(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}{mark}")
     return "\n".join(lines)
@@ -402,12 +428,12 @@ def main():
                         runs[renderer].append((t, *errors(img, refs[renderer]), errors(img, refs["cycles"])[0]))
                 for renderer, images in runs.items():
                     t, relmse, rmse, vs_cycles = (float(np.mean(column)) for column in zip(*images))
-                    se = float(np.std([r[1] for r in images], ddof=1) / math.sqrt(len(images))) if len(images) > 1 else float("nan")
-                    rows.append({"renderer": renderer, "spp": spp, "seconds": t, "relmse": relmse, "relmse_se": se, "rmse": rmse,
+                    se, t_se = (float(np.std([r[k] for r in images], ddof=1) / math.sqrt(len(images))) if len(images) > 1 else float("nan") for k in (1, 0))
+                    rows.append({"renderer": renderer, "spp": spp, "seconds": t, "seconds_se": t_se, "relmse": relmse, "relmse_se": se, "rmse": rmse,
                                  "relmse_vs_cycles": vs_cycles})
                 spp *= 2
             with open(out / f"{name}.csv", "w", newline="") as f:
-                w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "relmse", "relmse_se", "rmse", "relmse_vs_cycles"])
+                w = csv.DictWriter(f, fieldnames=["renderer", "spp", "seconds", "seconds_se", "relmse", "relmse_se", "rmse", "relmse_vs_cycles"])
                 w.writeheader()
                 w.writerows(rows)
             blacks = {renderer: black_relmse(ref) for renderer, ref in refs.items()}

@@ -8,7 +8,7 @@ import pytest
 
 import numpy as np
 
-from convergence import CLEAN_LEVELS, black_relmse, clean_image_table, peer_rows, time_to_level, time_to_reach
+from convergence import CLEAN_LEVELS, black_relmse, clean_image_table, peer_rows, relative_time_scatter, time_to_level, time_to_reach
 
 # Error halving as time doubles: an unbiased estimator's 1/time law.
 CURVE = [(1.0, 0.1), (2.0, 0.05), (4.0, 0.025)]
@@ -67,3 +67,23 @@ def test_a_peers_point_above_a_black_images_error_is_marked():
     assert lines[1].endswith("(above a black image's error)") and "n/a" not in lines[1]
     # 0.2 is below the black image's 0.3, and Glint's curve (from 0.1 at 1 s) is there first: 1/1 = 1.0×.
     assert lines[2].endswith("1.0×")
+
+
+def test_a_speed_up_carries_the_scatter_of_both_times():
+    # Glint's points each timed to 10%, the peer's to 5%.
+    rows = [{"renderer": "glint", "spp": 1, "seconds": t, "seconds_se": 0.1 * t, "relmse": e} for t, e in CURVE]
+    rows += [{"renderer": "cycles", "spp": 1, "seconds": 2.0, "seconds_se": 0.1, "relmse": 0.5}]
+    lines = peer_rows("scene", "cycles", rows, CURVE, black=1.0).splitlines()
+    # Above Glint's first error: Glint's time is its first point's, 1 s.
+    # 2/1 = 2.0×, relative error hypot(0.05, 0.1): ± 0.22.
+    assert lines[1].endswith(f"2.0× ± {2.0 * math.hypot(0.05, 0.1):.2f}")
+    # Between two points, the larger of their scatters.
+    rows[1]["seconds_se"] = 0.3 * rows[1]["seconds"]
+    assert relative_time_scatter(rows[:3], 0.07) == pytest.approx(0.3)
+    assert relative_time_scatter(rows[:3], 0.2) == pytest.approx(0.1)
+
+
+def test_a_speed_up_without_timings_scatter_has_none():
+    rows = [{"renderer": "glint", "spp": 1, "seconds": t, "relmse": e} for t, e in CURVE]
+    rows += [{"renderer": "cycles", "spp": 1, "seconds": 2.0, "seconds_se": float("nan"), "relmse": 0.5}]
+    assert peer_rows("scene", "cycles", rows, CURVE, black=1.0).splitlines()[1].endswith("2.0×")
