@@ -15,6 +15,16 @@
 //! an importance never zero where the light can light the point. A zero
 //! normal (a BSDF that transmits) counts light from every side.
 //!
+//! At a point whose normal lies along an axis (±x, ±y, ±z: floors, walls
+//! and ceilings as modelled), the parts are the cell's own, computed with
+//! the grid for each of the six: the facing term's most over the cell's
+//! points (and normals within `AXIS_COS` of the axis) in place of its
+//! value at p, summed, so that a pick is a lookup and a count of the sums
+//! at or below its number, and a probability two reads. These parts are
+//! never below the point's own, so no reachable light loses its share;
+//! they are a little looser beside a lamp. The table is made only where
+//! some surface of the scene lies along an axis.
+//!
 //! Points outside the grid, and cells where no light has a part, are the
 //! tree's (`LightTree::sample` asks the cache first).
 
@@ -27,12 +37,16 @@ use rayon::prelude::*;
 const GROUPS: usize = 4;
 const MAX_LIGHTS: usize = GROUPS * WIDTH;
 /// About this many cells over the scene's box, as near cubes as its
-/// shape allows (1 MB for 32 lights). In the benchmark's hall (256², 4
+/// shape allows (1 MB for 32 lights, and 3 MB more for the parts by axis). In the benchmark's hall (256², 4
 /// seeds, Glint's 512-spp image), against the tree at 16 spp: 1,024
 /// cells −5.6% time and −2.4% relMSE; 4,096, −3.5% and −8.7%; 16,384,
 /// −1.6% and −9.8% (more cells, tighter bounds, but fewer of them in
 /// cache).
 const CELLS: f32 = 4096.0;
+
+/// A normal within this cosine of an axis (0.8°) picks from the cell's
+/// parts for that axis (`LightCache::axis_ends`).
+const AXIS_COS: f32 = 0.9999;
 
 /// Every light's terms in one cell, a lane each (light k in lane k).
 #[derive(Clone, Copy)]
@@ -51,6 +65,11 @@ pub struct LightCache {
     scale: Vec3,
     dims: [usize; 3],
     cells: Vec<Cell>,
+    /// Each cell's parts for normals along +x, −x, +y, −y, +z and −z, as
+    /// running sums: lane k holds lanes 0..=k's. Empty where no surface
+    /// lies along an axis. Apart from `cells`, whose 256 bytes a pick at
+    /// any other normal reads.
+    axis_ends: Vec<[[f32; MAX_LIGHTS]; 6]>,
     /// Each light's bounding sphere: centre and radius, a lane each.
     x: [f32; MAX_LIGHTS],
     y: [f32; MAX_LIGHTS],
@@ -60,9 +79,10 @@ pub struct LightCache {
 
 impl LightCache {
     /// The cache of `lights` over the box `lo`..`hi` that shading points
-    /// lie in (the scene's triangles'); None for more than `MAX_LIGHTS`, an
-    /// empty or infinite box.
-    pub fn new(lights: &[TreeLight], lo: Vec3, hi: Vec3) -> Option<Self> {
+    /// lie in (the scene's triangles'), with parts by axis where
+    /// `along_axes` (some surface lies along one); None for more than
+    /// `MAX_LIGHTS`, an empty or infinite box.
+    pub fn new(lights: &[TreeLight], lo: Vec3, hi: Vec3, along_axes: bool) -> Option<Self> {
         if lights.is_empty() || lights.len() > MAX_LIGHTS || !(lo.cmple(hi).all() && lo.is_finite() && hi.is_finite()) {
             return None;
         }
@@ -76,16 +96,15 @@ impl LightCache {
             return None;
         }
         let cell_radius = 0.5 * size.length();
-        let cells = (0..dims[0] * dims[1] * dims[2])
-            .into_par_iter()
-            .map(|k| {
-                let (i, j, l) = (k % dims[0], (k / dims[0]) % dims[1], k / (dims[0] * dims[1]));
-                let centre = lo + size * Vec3::new(i as f32 + 0.5, j as f32 + 0.5, l as f32 + 0.5);
-                cell(lights, centre, cell_radius)
-            })
-            .collect();
+        let centre = |k: usize| {
+            let (i, j, l) = (k % dims[0], (k / dims[0]) % dims[1], k / (dims[0] * dims[1]));
+            lo + size * Vec3::new(i as f32 + 0.5, j as f32 + 0.5, l as f32 + 0.5)
+        };
+        let count = dims[0] * dims[1] * dims[2];
+        let cells: Vec<Cell> = (0..count).into_par_iter().map(|k| cell(lights, centre(k), cell_radius)).collect();
+        let axis_ends = if along_axes { (0..count).into_par_iter().map(|k| axis_ends(lights, centre(k), cell_radius, &cells[k])).collect() } else { Vec::new() };
         let zero = [0.0; MAX_LIGHTS];
-        let mut cache = LightCache { lo, hi: lo + extent, scale, dims, cells, x: zero, y: zero, z: zero, radius: zero };
+        let mut cache = LightCache { lo, hi: lo + extent, scale, dims, cells, axis_ends, x: zero, y: zero, z: zero, radius: zero };
         for (i, light) in lights.iter().enumerate() {
             let (middle, radius) = sphere(light);
             (cache.x[i], cache.y[i], cache.z[i], cache.radius[i]) = (middle.x, middle.y, middle.z, radius);
@@ -93,16 +112,32 @@ impl LightCache {
         Some(cache)
     }
 
-    /// The cell holding `p`; None outside the grid.
+    /// The index of the cell holding `p`; None outside the grid.
     #[inline(always)]
-    fn cell(&self, p: Vec3) -> Option<&Cell> {
+    fn index(&self, p: Vec3) -> Option<usize> {
         if !(p.cmpge(self.lo).all() && p.cmple(self.hi).all()) {
             return None;
         }
         let c = (p - self.lo) * self.scale;
         let at = |v: f32, n: usize| (v as usize).min(n - 1);
         let (i, j, l) = (at(c.x, self.dims[0]), at(c.y, self.dims[1]), at(c.z, self.dims[2]));
-        self.cells.get(i + self.dims[0] * (j + self.dims[1] * l))
+        Some(i + self.dims[0] * (j + self.dims[1] * l))
+    }
+
+    #[inline(always)]
+    fn cell(&self, p: Vec3) -> Option<&Cell> {
+        self.cells.get(self.index(p)?)
+    }
+
+    /// The running sums of the parts at `p` for normal `n` where `n` lies
+    /// along an axis and the table has it: Some(None) outside the grid.
+    #[inline(always)]
+    fn along_axis(&self, p: Vec3, n: Vec3) -> Option<Option<&[f32; MAX_LIGHTS]>> {
+        if self.axis_ends.is_empty() {
+            return None;
+        }
+        let axis = axis_of(n)?;
+        Some(self.index(p).and_then(|k| self.axis_ends.get(k)).map(|ends| &ends[axis]))
     }
 
     /// Every light's part at `p` of normal `n`, each group's sum and the
@@ -135,6 +170,9 @@ impl LightCache {
     /// the tree must pick.
     #[inline]
     pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
+        if let Some(ends) = self.along_axis(p, n) {
+            return sample_ends(ends?, u);
+        }
         let (parts, sums, total) = self.parts(p, n)?;
         let group_starts = [0.0, sums[0], sums[0] + sums[1], (sums[0] + sums[1]) + sums[2]];
         let (group, offset) = pick(&sums, &group_starts, u * total);
@@ -147,9 +185,47 @@ impl LightCache {
     /// None where the tree picks.
     #[inline]
     pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> Option<f32> {
+        if let Some(ends) = self.along_axis(p, n) {
+            let ends = ends?;
+            let total = valid_total(ends)?;
+            return Some((ends[light] - if light == 0 { 0.0 } else { ends[light - 1] }) / total);
+        }
         let (parts, _, total) = self.parts(p, n)?;
         Some(parts[light / WIDTH][light % WIDTH] / total)
     }
+}
+
+/// Which of +x, −x, +y, −y, +z, −z `n` lies along, to `AXIS_COS`; None
+/// for any other normal and for zero.
+#[inline(always)]
+pub(crate) fn axis_of(n: Vec3) -> Option<usize> {
+    let a = n.abs();
+    let k = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
+    (a[k] >= AXIS_COS).then(|| 2 * k + (n[k] < 0.0) as usize)
+}
+
+/// The sum of the parts whose running sums are `ends`, where it is
+/// positive and finite.
+#[inline(always)]
+fn valid_total(ends: &[f32; MAX_LIGHTS]) -> Option<f32> {
+    let total = ends[MAX_LIGHTS - 1];
+    (total > 0.0 && total < f32::INFINITY).then_some(total)
+}
+
+/// `LightCache::sample` from running sums: the lane is the count of sums
+/// at or below u·total, compares side by side.
+#[inline(always)]
+fn sample_ends(ends: &[f32; MAX_LIGHTS], u: f32) -> Option<(usize, f32, f32)> {
+    let total = valid_total(ends)?;
+    let target = u * total;
+    let mut lane = ends.iter().map(|&e| (e <= target) as usize).sum::<usize>();
+    if lane == MAX_LIGHTS {
+        // u·total rounded up to the total: the last lane with a part.
+        lane = (0..MAX_LIGHTS).rev().find(|&k| ends[k] > if k == 0 { 0.0 } else { ends[k - 1] }).unwrap_or(0);
+    }
+    let start = if lane == 0 { 0.0 } else { ends[lane - 1] };
+    let part = ends[lane] - start;
+    Some((lane, part / total, ((target - start) / part).clamp(0.0, ONE_BELOW)))
 }
 
 /// A light's bounding sphere: its box's centre and half diagonal.
@@ -180,4 +256,35 @@ fn cell(lights: &[TreeLight], centre: Vec3, radius: f32) -> Cell {
         cell.inv_dist[i] = if inv.is_finite() { inv } else { f32::MAX };
     }
     cell
+}
+
+/// The running sums of every light's part in a cell for normals along
+/// each axis: the cell's bound times the facing term at its most over
+/// the cell's points and the normals within `AXIS_COS` of the axis.
+fn axis_ends(lights: &[TreeLight], centre: Vec3, radius: f32, cell: &Cell) -> [[f32; MAX_LIGHTS]; 6] {
+    let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    let sin_cone = (1.0 - AXIS_COS * AXIS_COS).sqrt();
+    let mut ends = [[0.0; MAX_LIGHTS]; 6];
+    for (i, light) in lights.iter().enumerate() {
+        let (middle, own) = sphere(light);
+        // n·(c − p) ≤ n·v + radius for p in the cell, v = c − centre, and
+        // n·v at most |v|·cos(max(0, angle(axis, v) − θ)) in the cone;
+        // a millionth of the lengths more against rounding.
+        let v = middle - centre;
+        let length = v.length();
+        let slack = 1e-6 * (length + radius + own + centre.abs().max_element());
+        for (a, axis) in axes.iter().enumerate() {
+            let along = axis.dot(v);
+            let most = if along >= length * AXIS_COS { length } else { along * AXIS_COS + axis.cross(v).length() * sin_cone };
+            // max, then min: as `LightCache::parts`.
+            let facing = ((most + radius + own + slack) * cell.inv_dist[i]).max(0.0).min(1.0);
+            ends[a][i] = cell.bound[i] * facing;
+        }
+    }
+    for sums in &mut ends {
+        for k in 1..MAX_LIGHTS {
+            sums[k] += sums[k - 1];
+        }
+    }
+    ends
 }

@@ -365,9 +365,11 @@ impl LightTree {
     /// light and none has a Spread (whose cone the tree bounds a child by,
     /// and a grid's cell would not); elsewhere, and at points outside the
     /// grid, the tree's.
-    pub fn cache_over(&mut self, lights: &[TreeLight], lo: Vec3, hi: Vec3) {
+    /// `along_axes`: some surface lies along an axis, where the grid
+    /// keeps parts by axis (light_cache.rs).
+    pub fn cache_over(&mut self, lights: &[TreeLight], lo: Vec3, hi: Vec3, along_axes: bool) {
         if lights.len() > WIDTH && !self.spread() {
-            self.cache = LightCache::new(lights, lo, hi);
+            self.cache = LightCache::new(lights, lo, hi, along_axes);
         }
     }
 
@@ -710,11 +712,16 @@ mod tests {
             let lights = random_lights(&mut rng, count, 0.3);
             let plain = LightTree::new(&lights).unwrap();
             let mut tree = LightTree::new(&lights).unwrap();
-            tree.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0));
+            tree.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), true);
             assert!(tree.cached());
-            for k in 0..6 {
+            for k in 0..12 {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 24.0 - 12.0;
-                let n = if k % 2 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
+                let n = match k % 3 {
+                    0 => Vec3::ZERO,
+                    1 => Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y),
+                    // Along an axis: the cell's parts for it.
+                    _ => AXES[k % 6],
+                };
                 assert_consistent(&tree, p, n, &format!("{count} lights, grid, at {p}, normal {n}"));
             }
             let outside = Vec3::new(30.0, 0.0, 0.0);
@@ -724,14 +731,37 @@ mod tests {
         for count in [8, 33] {
             let lights: Vec<TreeLight> = (0..count).map(|i| point(Vec3::new(i as f32, 0.0, 0.0), 1.0)).collect();
             let mut tree = LightTree::new(&lights).unwrap();
-            tree.cache_over(&lights, Vec3::splat(-1.0), Vec3::splat(40.0));
+            tree.cache_over(&lights, Vec3::splat(-1.0), Vec3::splat(40.0), true);
             assert!(!tree.cached(), "{count} lights");
         }
         let mut spread = random_lights(&mut rng, 12, 0.0);
         spread[4].cos_spread = 0.9;
         let mut tree = LightTree::new(&spread).unwrap();
-        tree.cache_over(&spread, Vec3::splat(-12.0), Vec3::splat(12.0));
+        tree.cache_over(&spread, Vec3::splat(-12.0), Vec3::splat(12.0), true);
         assert!(!tree.cached(), "a light with a Spread");
+    }
+
+    const AXES: [Vec3; 6] = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+
+    /// Where no surface lies along an axis the grid keeps no parts by
+    /// axis, and a normal along one picks by the point's own facing; where
+    /// one does, by the cell's, which beside a lamp differ.
+    #[test]
+    fn parts_by_axis_only_where_surfaces_lie_along_one() {
+        let mut rng = Rng::new(21, 1);
+        let lights = random_lights(&mut rng, 16, 0.0);
+        let (mut by_axis, mut own) = (LightTree::new(&lights).unwrap(), LightTree::new(&lights).unwrap());
+        by_axis.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), true);
+        own.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), false);
+        let mut differ = 0;
+        for (k, l) in lights.iter().enumerate() {
+            let p = 0.5 * (l.lo + l.hi) + Vec3::new(0.05, -0.3, 0.02);
+            let n = AXES[k % 6];
+            assert_consistent(&by_axis, p, n, &format!("by axis at {p}, {n}"));
+            assert_consistent(&own, p, n, &format!("own at {p}, {n}"));
+            differ += (0..lights.len()).any(|i| by_axis.probability(i, p, n) != own.probability(i, p, n)) as usize;
+        }
+        assert!(differ > lights.len() / 2, "{differ}");
     }
 
     /// A grid never takes every pick from a light that can light the
@@ -749,7 +779,7 @@ mod tests {
             })
             .collect();
         let mut tree = LightTree::new(&lights).unwrap();
-        tree.cache_over(&lights, Vec3::splat(-5.0), Vec3::splat(5.0));
+        tree.cache_over(&lights, Vec3::splat(-5.0), Vec3::splat(5.0), true);
         let mut checked = 0;
         for k in 0..3000 {
             // Every third point next to a lamp, within its box's reach.
@@ -759,7 +789,14 @@ mod tests {
             } else {
                 Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0 - 5.0
             };
-            let n = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y);
+            // Every other normal along an axis, exactly or to within 0.8°
+            // (the parts by axis), or a little further (the point's own).
+            let n = if k % 2 == 0 {
+                let tilt = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * 0.02;
+                (AXES[k % 6] + if k % 4 == 0 { tilt } else { Vec3::ZERO }).normalize()
+            } else {
+                Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y)
+            };
             for (i, l) in lights.iter().enumerate() {
                 let reaches = (0..64).any(|_| {
                     let y = l.lo + (l.hi - l.lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
