@@ -21,9 +21,11 @@
 //! points (and normals within `AXIS_COS` of the axis) in place of its
 //! value at p, summed, so that a pick is a lookup and a count of the sums
 //! at or below its number, and a probability two reads. These parts are
-//! never below the point's own, so no reachable light loses its share;
-//! they are a little looser beside a lamp. The table is made only where
-//! some surface of the scene lies along an axis.
+//! never below the point's own, so no reachable light loses its share
+//! (but for one under 2⁻²⁴ of the cell's sum, whose interval the f32
+//! running sums round away, as the tree's sums do); they are a little
+//! looser beside a lamp. The table is made only where some surface of
+//! the scene lies along an axis.
 //!
 //! Points outside the grid, and cells where no light has a part, are the
 //! tree's (`LightTree::sample` asks the cache first).
@@ -37,8 +39,9 @@ use rayon::prelude::*;
 const GROUPS: usize = 4;
 const MAX_LIGHTS: usize = GROUPS * WIDTH;
 /// About this many cells over the scene's box, as near cubes as its
-/// shape allows (1 MB for 32 lights, and 3 MB more for the parts by axis). In the benchmark's hall (256², 4
-/// seeds, Glint's 512-spp image), against the tree at 16 spp: 1,024
+/// shape allows (1 MB for 32 lights, and 3 MB more for the parts by
+/// axis). In the benchmark's hall (256², 4 seeds, Glint's 512-spp
+/// image), before the parts by axis, against the tree at 16 spp: 1,024
 /// cells −5.6% time and −2.4% relMSE; 4,096, −3.5% and −8.7%; 16,384,
 /// −1.6% and −9.8% (more cells, tighter bounds, but fewer of them in
 /// cache).
