@@ -83,9 +83,10 @@ pub struct LightCache {
 impl LightCache {
     /// The cache of `lights` over the box `lo`..`hi` that shading points
     /// lie in (the scene's triangles'), with parts by axis where
-    /// `along_axes` (some surface lies along one); None for more than
-    /// `MAX_LIGHTS`, an empty or infinite box.
-    pub fn new(lights: &[TreeLight], lo: Vec3, hi: Vec3, along_axes: bool) -> Option<Self> {
+    /// `along_axes` says some surface lies along one (asked only for a
+    /// grid that is made); None for more than `MAX_LIGHTS`, an empty or
+    /// infinite box.
+    pub fn new(lights: &[TreeLight], lo: Vec3, hi: Vec3, along_axes: impl FnOnce() -> bool) -> Option<Self> {
         if lights.is_empty() || lights.len() > MAX_LIGHTS || !(lo.cmple(hi).all() && lo.is_finite() && hi.is_finite()) {
             return None;
         }
@@ -105,7 +106,7 @@ impl LightCache {
         };
         let count = dims[0] * dims[1] * dims[2];
         let cells: Vec<Cell> = (0..count).into_par_iter().map(|k| cell(lights, centre(k), cell_radius)).collect();
-        let axis_ends = if along_axes { (0..count).into_par_iter().map(|k| axis_ends(lights, centre(k), cell_radius, &cells[k])).collect() } else { Vec::new() };
+        let axis_ends = if along_axes() { (0..count).into_par_iter().map(|k| axis_ends(lights, centre(k), cell_radius, &cells[k])).collect() } else { Vec::new() };
         let zero = [0.0; MAX_LIGHTS];
         let mut cache = LightCache { lo, hi: lo + extent, scale, dims, cells, axis_ends, x: zero, y: zero, z: zero, radius: zero };
         for (i, light) in lights.iter().enumerate() {
@@ -191,7 +192,7 @@ impl LightCache {
         if let Some(ends) = self.along_axis(p, n) {
             let ends = ends?;
             let total = valid_total(ends)?;
-            return Some((ends[light] - if light == 0 { 0.0 } else { ends[light - 1] }) / total);
+            return Some((ends[light] - start_of(ends, light)) / total);
         }
         let (parts, _, total) = self.parts(p, n)?;
         Some(parts[light / WIDTH][light % WIDTH] / total)
@@ -215,6 +216,12 @@ fn valid_total(ends: &[f32; MAX_LIGHTS]) -> Option<f32> {
     (total > 0.0 && total < f32::INFINITY).then_some(total)
 }
 
+/// Where lane `k`'s interval starts in running sums `ends`.
+#[inline(always)]
+fn start_of(ends: &[f32; MAX_LIGHTS], k: usize) -> f32 {
+    if k == 0 { 0.0 } else { ends[k - 1] }
+}
+
 /// `LightCache::sample` from running sums: the lane is the count of sums
 /// at or below u·total, compares side by side.
 #[inline(always)]
@@ -224,9 +231,9 @@ fn sample_ends(ends: &[f32; MAX_LIGHTS], u: f32) -> Option<(usize, f32, f32)> {
     let mut lane = ends.iter().map(|&e| (e <= target) as usize).sum::<usize>();
     if lane == MAX_LIGHTS {
         // u·total rounded up to the total: the last lane with a part.
-        lane = (0..MAX_LIGHTS).rev().find(|&k| ends[k] > if k == 0 { 0.0 } else { ends[k - 1] }).unwrap_or(0);
+        lane = (0..MAX_LIGHTS).rev().find(|&k| ends[k] > start_of(ends, k)).unwrap_or(0);
     }
-    let start = if lane == 0 { 0.0 } else { ends[lane - 1] };
+    let start = start_of(ends, lane);
     let part = ends[lane] - start;
     Some((lane, part / total, ((target - start) / part).clamp(0.0, ONE_BELOW)))
 }

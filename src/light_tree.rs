@@ -365,9 +365,11 @@ impl LightTree {
     /// light and none has a Spread (whose cone the tree bounds a child by,
     /// and a grid's cell would not); elsewhere, and at points outside the
     /// grid, the tree's.
-    /// `along_axes`: some surface lies along an axis, where the grid
-    /// keeps parts by axis (light_cache.rs).
-    pub fn cache_over(&mut self, lights: &[TreeLight], lo: Vec3, hi: Vec3, along_axes: bool) {
+    ///
+    /// `along_axes`: whether some surface lies along an axis, where the
+    /// grid keeps parts by axis (light_cache.rs); asked only for a grid
+    /// that is made.
+    pub fn cache_over(&mut self, lights: &[TreeLight], lo: Vec3, hi: Vec3, along_axes: impl FnOnce() -> bool) {
         if lights.len() > WIDTH && !self.spread() {
             self.cache = LightCache::new(lights, lo, hi, along_axes);
         }
@@ -712,7 +714,7 @@ mod tests {
             let lights = random_lights(&mut rng, count, 0.3);
             let plain = LightTree::new(&lights).unwrap();
             let mut tree = LightTree::new(&lights).unwrap();
-            tree.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), true);
+            tree.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), || true);
             assert!(tree.cached());
             for k in 0..12 {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 24.0 - 12.0;
@@ -731,13 +733,13 @@ mod tests {
         for count in [8, 33] {
             let lights: Vec<TreeLight> = (0..count).map(|i| point(Vec3::new(i as f32, 0.0, 0.0), 1.0)).collect();
             let mut tree = LightTree::new(&lights).unwrap();
-            tree.cache_over(&lights, Vec3::splat(-1.0), Vec3::splat(40.0), true);
+            tree.cache_over(&lights, Vec3::splat(-1.0), Vec3::splat(40.0), || true);
             assert!(!tree.cached(), "{count} lights");
         }
         let mut spread = random_lights(&mut rng, 12, 0.0);
         spread[4].cos_spread = 0.9;
         let mut tree = LightTree::new(&spread).unwrap();
-        tree.cache_over(&spread, Vec3::splat(-12.0), Vec3::splat(12.0), true);
+        tree.cache_over(&spread, Vec3::splat(-12.0), Vec3::splat(12.0), || true);
         assert!(!tree.cached(), "a light with a Spread");
     }
 
@@ -751,8 +753,8 @@ mod tests {
         let mut rng = Rng::new(21, 1);
         let lights = random_lights(&mut rng, 16, 0.0);
         let (mut by_axis, mut own) = (LightTree::new(&lights).unwrap(), LightTree::new(&lights).unwrap());
-        by_axis.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), true);
-        own.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), false);
+        by_axis.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), || true);
+        own.cache_over(&lights, Vec3::splat(-12.0), Vec3::splat(12.0), || false);
         let mut differ = 0;
         for (k, l) in lights.iter().enumerate() {
             let p = 0.5 * (l.lo + l.hi) + Vec3::new(0.05, -0.3, 0.02);
@@ -779,7 +781,7 @@ mod tests {
             })
             .collect();
         let mut tree = LightTree::new(&lights).unwrap();
-        tree.cache_over(&lights, Vec3::splat(-5.0), Vec3::splat(5.0), true);
+        tree.cache_over(&lights, Vec3::splat(-5.0), Vec3::splat(5.0), || true);
         let mut checked = 0;
         for k in 0..3000 {
             // Every third point next to a lamp, within its box's reach.

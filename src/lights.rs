@@ -159,7 +159,7 @@ impl LocalTree {
         // Shading points lie on the surfaces; a point rounded off their box
         // is the tree's.
         let (lo, hi) = crate::scene::bounds(&scene.triangles);
-        let along_axes = scene.triangles.iter().any(|t| crate::light_cache::axis_of(t.cross().normalize_or_zero()).is_some());
+        let along_axes = || scene.triangles.iter().any(|t| crate::light_cache::axis_of(t.cross().normalize_or_zero()).is_some());
         tree.cache_over(&lights, lo, hi, along_axes);
         Some(LocalTree { tree, items, of_emitter, of_punctual })
     }

@@ -228,19 +228,25 @@ def black_relmse(ref):
     return errors(np.zeros_like(ref), ref)[0]
 
 
+def relative_seconds_se(row):
+    """A point's time's standard error over its time; None where the row
+    has no finite `seconds_se` or no time."""
+    se = row.get("seconds_se", math.nan)
+    return se / row["seconds"] if math.isfinite(se) and row["seconds"] > 0 else None
+
+
 def relative_time_scatter(glint_rows, target):
     """The standard error, relative, of the time Glint's curve takes to
     `target`: that of its first point where the target is at or above
     its error (the time is that point's), else the larger of the two
     points' the target lies between; None without `seconds_se`."""
-    points = [r for r in glint_rows if math.isfinite(r.get("seconds_se", math.nan)) and r["seconds"] > 0]
-    if len(points) != len(glint_rows) or not points:
+    rse = [relative_seconds_se(r) for r in glint_rows]
+    if not rse or None in rse:
         return None
-    rse = [r["seconds_se"] / r["seconds"] for r in points]
-    if target >= points[0]["relmse"]:
+    if target >= glint_rows[0]["relmse"]:
         return rse[0]
-    for k in range(len(points) - 1):
-        if points[k + 1]["relmse"] <= target <= points[k]["relmse"]:
+    for k in range(len(glint_rows) - 1):
+        if glint_rows[k + 1]["relmse"] <= target <= glint_rows[k]["relmse"]:
             return max(rse[k], rse[k + 1])
     return None
 
@@ -260,9 +266,9 @@ def peer_rows(name, peer, rows, glint_curve, black):
         t = time_to_reach(glint_curve, r["relmse"])
         speedup = f"{r['seconds'] / t:.1f}×" if t else "n/a"
         rse_glint = relative_time_scatter(glint_rows, r["relmse"]) if t else None
-        if rse_glint is not None and math.isfinite(r.get("seconds_se", math.nan)) and r["seconds"] > 0:
-            rse = math.hypot(r["seconds_se"] / r["seconds"], rse_glint)
-            speedup += f" ± {r['seconds'] / t * rse:.2f}"
+        rse_peer = relative_seconds_se(r)
+        if rse_glint is not None and rse_peer is not None:
+            speedup += f" ± {r['seconds'] / t * math.hypot(rse_peer, rse_glint):.2f}"
         mark = " (above a black image's error)" if r["relmse"] > black else ""
         lines.append(f"{name}: {r['spp']:5d} | {r['seconds']:8.3f} | {r['relmse']:.3e} | {t if t else float('nan'):8.3f} | {speedup}{mark}")
     return "\n".join(lines)
