@@ -36,11 +36,12 @@
 //! random: on the benchmark machine (a Xeon under KVM) two threads reading
 //! the same lines took 7–8% more CPU time than two processes, each with
 //! its own, reading theirs (1 and 2 threads, 8 spp: 1,040 and 1,130 ms of
-//! CPU). With a copy each, the hall's 8 spp took 532 ms against 571–575
-//! (−7%), 1 spp 71.4 against 73.7–75.5 ms (medians of 6 and 16
-//! interleaved runs, 256²); a copy made by one thread and read by the
-//! other gained at 8 spp only, the lines it wrote sitting in its own
-//! caches as the other first read them.
+//! CPU). With a copy each, the hall (256²) at 8 spp took 3.6% ± 1.2 less
+//! time (12 pairs of alternating runs); at 1 spp 2.5–3.6% less in a fast
+//! spell of the machine and the same in a slow one (−0.5% ± 1.9, +1.4% ±
+//! 0.9, 40 pairs each). A copy made by one thread and read by the other
+//! gained at 8 spp only, likely as the lines it wrote were still in its
+//! maker's caches when the other first read them.
 
 use crate::light_tree::{pick, starts, Cone, TreeLight, ONE_BELOW, WIDTH};
 use crate::Vec3;
