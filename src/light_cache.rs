@@ -162,21 +162,22 @@ impl LightCache {
     }
 
     /// The calling worker's copy of the tables; the first off the pool.
+    /// Looked up once a pick (a thread-local read).
     #[inline(always)]
     fn tables(&self) -> &Tables {
         rayon::current_thread_index().and_then(|i| self.copies.get(i)).unwrap_or(&self.copies[0])
     }
 
     #[inline(always)]
-    fn cell(&self, p: Vec3) -> Option<&Cell> {
-        self.tables().cells.get(self.index(p)?)
+    fn cell<'a>(&self, tables: &'a Tables, p: Vec3) -> Option<&'a Cell> {
+        tables.cells.get(self.index(p)?)
     }
 
     /// The running sums of the parts at `p` for normal `n` where `n` lies
     /// along an axis and the table has it: Some(None) outside the grid.
     #[inline(always)]
-    fn along_axis(&self, p: Vec3, n: Vec3) -> Option<Option<&[f32; MAX_LIGHTS]>> {
-        let axis_ends = &self.tables().axis_ends;
+    fn along_axis<'a>(&self, tables: &'a Tables, p: Vec3, n: Vec3) -> Option<Option<&'a [f32; MAX_LIGHTS]>> {
+        let axis_ends = &tables.axis_ends;
         if axis_ends.is_empty() {
             return None;
         }
@@ -189,8 +190,8 @@ impl LightCache {
     /// finite.
     #[inline(always)]
     #[allow(clippy::needless_range_loop, clippy::manual_clamp)] // a lane of six arrays; NaN
-    fn parts(&self, p: Vec3, n: Vec3) -> Option<([[f32; WIDTH]; GROUPS], [f32; GROUPS], f32)> {
-        let cell = self.cell(p)?;
+    fn parts(&self, tables: &Tables, p: Vec3, n: Vec3) -> Option<([[f32; WIDTH]; GROUPS], [f32; GROUPS], f32)> {
+        let cell = self.cell(tables, p)?;
         // A zero normal: 1 added to every light's facing, which the
         // clamp then makes 1.
         let every_side = if n == Vec3::ZERO { 1.0 } else { 0.0 };
@@ -214,10 +215,11 @@ impl LightCache {
     /// the tree must pick.
     #[inline]
     pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
-        if let Some(ends) = self.along_axis(p, n) {
+        let tables = self.tables();
+        if let Some(ends) = self.along_axis(tables, p, n) {
             return sample_ends(ends?, u);
         }
-        let (parts, sums, total) = self.parts(p, n)?;
+        let (parts, sums, total) = self.parts(tables, p, n)?;
         let group_starts = [0.0, sums[0], sums[0] + sums[1], (sums[0] + sums[1]) + sums[2]];
         let (group, offset) = pick(&sums, &group_starts, u * total);
         let (lane, offset) = pick(&parts[group], &starts(&parts[group]).0, offset);
@@ -229,12 +231,13 @@ impl LightCache {
     /// None where the tree picks.
     #[inline]
     pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> Option<f32> {
-        if let Some(ends) = self.along_axis(p, n) {
+        let tables = self.tables();
+        if let Some(ends) = self.along_axis(tables, p, n) {
             let ends = ends?;
             let total = valid_total(ends)?;
             return Some((ends[light] - start_of(ends, light)) / total);
         }
-        let (parts, _, total) = self.parts(p, n)?;
+        let (parts, _, total) = self.parts(tables, p, n)?;
         Some(parts[light / WIDTH][light % WIDTH] / total)
     }
 }
