@@ -237,18 +237,14 @@ def relative_seconds_se(row):
 
 def relative_time_scatter(glint_rows, target):
     """The standard error, relative, of the time Glint's curve takes to
-    `target`: that of its first point where the target is at or above
-    its error (the time is that point's), else the larger of the two
-    points' the target lies between; None without `seconds_se`."""
+    `target` (`time_to_reach`): the larger of those of the points the
+    time comes from, the first point's alone where it is that point's;
+    None without `seconds_se`."""
     rse = [relative_seconds_se(r) for r in glint_rows]
-    if not rse or None in rse:
+    span = reached_between(curve_of(glint_rows, "glint"), target)
+    if span is None or None in rse:
         return None
-    if target >= glint_rows[0]["relmse"]:
-        return rse[0]
-    for k in range(len(glint_rows) - 1):
-        if glint_rows[k + 1]["relmse"] <= target <= glint_rows[k]["relmse"]:
-            return max(rse[k], rse[k + 1])
-    return None
+    return max(rse[k] for k in span)
 
 
 def peer_rows(name, peer, rows, glint_curve, black):
@@ -279,17 +275,37 @@ def curve_of(rows, renderer):
     return [(row["seconds"], row["relmse"]) for row in rows if row["renderer"] == renderer]
 
 
+def clamped(curve):
+    """A (seconds, error) curve with no time or error at zero, for logs."""
+    return [(max(t, 1e-4), max(e, 1e-30)) for t, e in curve]
+
+
+def reached_between(curve, target):
+    """The indices (k, k + 1) of the two points of a (seconds, error)
+    curve whose errors `target` lies between, the first such pair; (0,)
+    where it lies at or above the first point's error alone; None when
+    the curve never reaches it."""
+    curve = clamped(curve)
+    for k, ((_, e0), (_, e1)) in enumerate(zip(curve, curve[1:])):
+        if e1 <= target <= e0 and e0 > e1:
+            return (k, k + 1)
+    if curve and curve[0][1] <= target:
+        return (0,)
+    return None
+
+
 def time_to_reach(curve, target):
     """Seconds at which a (seconds, error) curve reaches `target`, by
     log–log interpolation; None when it never does within the curve."""
-    curve = [(max(t, 1e-4), max(e, 1e-30)) for t, e in curve]
-    for (t0, e0), (t1, e1) in zip(curve, curve[1:]):
-        if e1 <= target <= e0 and e0 > e1:
-            a = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
-            return math.exp(math.log(t0) + a * (math.log(t1) - math.log(t0)))
-    if curve and curve[0][1] <= target:
+    span = reached_between(curve, target)
+    if span is None:
+        return None
+    curve = clamped(curve)
+    if len(span) == 1:
         return curve[0][0]
-    return None
+    (t0, e0), (t1, e1) = curve[span[0]], curve[span[1]]
+    a = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+    return math.exp(math.log(t0) + a * (math.log(t1) - math.log(t0)))
 
 
 # Errors at which an image counts as clean, for the time-to-clean table:
