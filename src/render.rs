@@ -202,6 +202,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     assert_eq!((film.width, film.height), (w, h), "film does not match the settings");
     let prepared = prepare_materials::<B>(ctx.scene);
     let lens = ctx.scene.camera.lens(w, h);
+    let sampler = settings.sampler.for_samples(settings.spp);
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE))).collect();
     // Light subpaths (light_paths.rs) where there are emitters to start
     // them and MIS to weigh their connections; traced for a few sample
@@ -279,7 +280,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     rngs.clear();
                     for i in 0..tile_pixels as u32 {
                         let (x, y) = (x0 + i % tw as u32, y0 + i / tw as u32);
-                        let mut rng = Rng::for_pixel_sample(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
+                        let mut rng = Rng::for_pixel_sample(sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
                         let jitter = rng.next_2d();
                         rays.set(i as usize, lens.ray(Vec2::new(x as f32, y as f32) + jitter).1);
                         rngs.push(rng);

@@ -99,6 +99,19 @@ fn images_are_reproducible_across_threads_and_pass_splits() {
     assert_ne!(a, e, "a different seed must give different noise");
 }
 
+/// A pixel of a 1-spp render has no other samples for Sobol's sets to be
+/// spread over, so such a render draws PCG32's numbers (rng.rs): the same
+/// image as the Random sampler's. Past one sample the two differ.
+#[test]
+fn a_one_sample_render_draws_independent_numbers() {
+    use glint::rng::Sampler;
+    let scene = cornell_box();
+    for (spp, same) in [(1, true), (2, false)] {
+        let with = |sampler| render(&scene, &RenderSettings { sampler, ..settings(32, 24, spp, 8, 5) }, 2).0;
+        assert_eq!(with(Sampler::Sobol) == with(Sampler::Random), same, "{spp} spp");
+    }
+}
+
 /// Camera rays' first hits found among the triangles binned to their tile
 /// (camera_hits.rs) give the BVH's image: the Cornell box, and the lamp
 /// hall, whose camera stands inside and whose walls reach behind it.
