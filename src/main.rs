@@ -176,6 +176,13 @@ struct RenderArgs {
     /// both rates by ray kind and the share of the render spent traversing.
     #[arg(long)]
     traversal: bool,
+    /// Render the image this many times in this one process, each from a
+    /// new film, and report the last (its image is the one written): from
+    /// the second on, a render's time is what the daemon the Blender add-on
+    /// keeps running gives after its first (the threads started, the
+    /// memory mapped). For benchmarks.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    repeat: u32,
     /// Add only these strategies' light to the image, to see which carries
     /// the noise: camera (what the camera ray sees), bsdf (light a BSDF
     /// sample reaches), light (light sampling), connection, tracing (light
@@ -268,24 +275,36 @@ fn render(args: RenderArgs) -> Result<()> {
     let total = (budget.samples > 0).then(|| width as u64 * height as u64 * budget.samples as u64);
     let progress = ProgressBar::with_draw_target(total, ProgressDrawTarget::hidden());
     progress.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed} (eta {eta})").unwrap_or_else(|_| ProgressStyle::default_bar()));
-    let started = Instant::now();
+    let opened = Instant::now();
     let shown = AtomicBool::new(false);
     let cancel = AtomicBool::new(false);
     let on_progress = |n: u64| {
         progress.inc(n);
         // Only renders that take more than a second get a progress bar.
-        if started.elapsed() > Duration::from_secs(1) && !shown.swap(true, std::sync::atomic::Ordering::Relaxed) {
+        if opened.elapsed() > Duration::from_secs(1) && !shown.swap(true, std::sync::atomic::Ordering::Relaxed) {
             progress.set_draw_target(ProgressDrawTarget::stderr());
         }
     };
-    let mut film = Film::new(width, height);
     // A fixed sample count renders in one pass: the per-pixel sums are then
     // grouped the same way however fast the kernel is, so the image depends
     // on the settings alone, bit for bit (a time limit needs passes).
-    let stats: PassStats = pool.install(|| match budget.time {
-        None => render_pass(&ctx, &settings, &mut film, 0..budget.samples, &cancel, &on_progress),
-        Some(_) => render_progressive(&ctx, &settings, &budget, &mut film, &cancel, &on_progress, &mut |_| {}),
-    })?;
+    let render_once = |film: &mut Film| {
+        pool.install(|| match budget.time {
+            None => render_pass(&ctx, &settings, film, 0..budget.samples, &cancel, &on_progress),
+            Some(_) => render_progressive(&ctx, &settings, &budget, film, &cancel, &on_progress, &mut |_| {}),
+        })
+    };
+    let mut earlier = Vec::new();
+    for _ in 1..args.repeat {
+        let started = Instant::now();
+        let mut film = Film::new(width, height);
+        render_once(&mut film)?;
+        earlier.push(started.elapsed().as_secs_f64() / film.samples.max(1) as f64);
+        progress.reset();
+    }
+    let started = Instant::now();
+    let mut film = Film::new(width, height);
+    let stats: PassStats = render_once(&mut film)?;
     let seconds = started.elapsed().as_secs_f64();
     progress.finish_and_clear();
 
@@ -307,6 +326,10 @@ fn render(args: RenderArgs) -> Result<()> {
             tests => glint::stderr_line!("camera rays' first hits: binned triangles, {tests:.1} tests a pixel sample"),
         }
         glint::stderr_line!("time: {:.5} s per sample (all pixels), {:.1} Mrays/s", seconds / film.samples.max(1) as f64, mrays);
+        if !earlier.is_empty() {
+            let times: Vec<String> = earlier.iter().map(|t| format!("{t:.5}")).collect();
+            glint::stderr_line!("earlier renders of the {}: {} s per sample", args.repeat, times.join(", "));
+        }
         let phases = &stats.phases;
         let (setup, subpaths, paths) = (phases.setup.as_secs_f64(), phases.light_subpaths.as_secs_f64(), phases.camera_paths.as_secs_f64());
         glint::stderr_line!("time by phase: set-up {setup:.5} s (MIS scale, camera rays' bins), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film's memory, passes)",

@@ -38,6 +38,29 @@ fn renders_the_embedded_default_scene_to_exr_and_png() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `--repeat N` renders N times in one process and writes the last
+/// image, which is the one a single render gives (same seed, bit for
+/// bit), and reports the earlier renders' times; zero renders is an error.
+#[test]
+fn repeated_renders_write_the_one_image_and_report_each_time() {
+    let dir = temp_dir("repeat");
+    let (once, thrice) = (dir.join("once.exr"), dir.join("thrice.exr"));
+    let common = ["--spp", "2", "--width", "24", "--height", "16", "--stats"];
+    let o = glint(&[&["render", "-o", once.to_str().unwrap()][..], &common].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("earlier renders"), "{}", stderr(&o));
+    let o = glint(&[&["render", "-o", thrice.to_str().unwrap(), "--repeat", "3"][..], &common].concat());
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let line = err.lines().find(|l| l.starts_with("earlier renders of the 3: ")).unwrap_or_else(|| panic!("{err}"));
+    let times: Vec<f64> = line.trim_start_matches("earlier renders of the 3: ").trim_end_matches(" s per sample").split(", ").map(|t| t.parse().unwrap()).collect();
+    assert!(times.len() == 2 && times.iter().all(|&t| t > 0.0), "{line}");
+    assert_eq!(std::fs::read(&once).unwrap(), std::fs::read(&thrice).unwrap());
+    let o = glint(&["render", "-o", dir.join("none.exr").to_str().unwrap(), "--repeat", "0"]);
+    assert!(!o.status.success() && stderr(&o).contains("--repeat"), "{}", stderr(&o));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn default_resolution_follows_the_camera_aspect_ratio() {
     let dir = temp_dir("aspect");
