@@ -61,6 +61,26 @@ fn repeated_renders_write_the_one_image_and_report_each_time() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The profile-guided build's training (tests/pgo-build) renders every
+/// kernel `render_pass` can choose, each with the kernel it names: one it
+/// left out would be compiled as cold code, and run slower than without
+/// a profile.
+#[test]
+fn the_pgo_training_renders_every_kernel() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = temp_dir("pgo-training");
+    let shared = std::env::var_os("GLINT_SHARED_DIR").map_or(root.join("../shared"), PathBuf::from);
+    let o = Command::new("python3").arg(root.join("tests/pgo_training.py")).arg(env!("CARGO_BIN_EXE_glint")).arg(&dir).arg(&shared).output().expect("run python3");
+    let (out, err) = (String::from_utf8_lossy(&o.stdout), stderr(&o));
+    assert!(o.status.success(), "{out}{err}");
+    let trained: std::collections::BTreeSet<&str> = out.lines().filter_map(|l| l.strip_prefix("trained kernel: ")).collect();
+    let bsdfs = ["lambert", "seed", "seed + glass", "principled", "principled + glass"];
+    let lights = ["no local lights", "punctual", "emitters", "emitters + lamps", "emitters + punctual", "emitters + lamps + punctual"];
+    let every: std::collections::BTreeSet<String> = bsdfs.iter().flat_map(|b| lights.iter().map(move |l| format!("{b} + {l}"))).collect();
+    assert_eq!(trained, every.iter().map(String::as_str).collect(), "{out}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn default_resolution_follows_the_camera_aspect_ratio() {
     let dir = temp_dir("aspect");
