@@ -33,16 +33,20 @@ fn check_size(width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
     Ok(())
 }
 
-/// Linear float RGBA EXR (alpha 1), scene-referred radiance.
+/// Linear float RGBA EXR (alpha 1), scene-referred radiance: run-length
+/// coded 64×64 tiles (exr's default), in increasing order, so that the
+/// same pixels always make the same file (the default order is that in
+/// which the parallel compression finishes).
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+    use exr::prelude::*;
     check_size(width, height, pixels)?;
-    write_atomically(path, |tmp| {
-        exr::prelude::write_rgba_file(tmp, width as usize, height as usize, |x, y| {
-            let p = pixels[y * width as usize + x];
-            (p.x, p.y, p.z, 1.0f32)
-        })
-        .with_context(|| format!("{}: cannot write EXR", path.display()))
-    })
+    let channels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
+        let p = pixels[y * width as usize + x];
+        (p.x, p.y, p.z, 1.0f32)
+    });
+    let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+    let image = Image::from_encoded_channels((width as usize, height as usize), encoding, channels);
+    write_atomically(path, |tmp| image.write().to_file(tmp).with_context(|| format!("{}: cannot write EXR", path.display())))
 }
 
 /// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
@@ -96,6 +100,27 @@ mod tests {
         let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 2, "{names:?}");
         assert!(write_exr(&path, 0, 2, &[]).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The same pixels make the same file, byte for byte: the EXR's
+    /// blocks (64×64 tiles, compressed in parallel) are written in order,
+    /// not as their compression finishes.
+    #[test]
+    fn the_same_pixels_write_the_same_bytes() {
+        let dir = std::env::temp_dir().join(format!("glint-out-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (w, h) = (640u32, 384u32);
+        let px: Vec<Vec3> = (0..w * h).map(|i| Vec3::new((i % 97) as f32 * 0.01, (i / w) as f32 * 1e-3, ((i * 7919) % 1000) as f32)).collect();
+        let bytes: Vec<Vec<u8>> = (0..4)
+            .map(|k| {
+                let path = dir.join(format!("{k}.exr"));
+                write_exr(&path, w, h, &px).unwrap();
+                std::fs::read(&path).unwrap()
+            })
+            .collect();
+        assert!(bytes.iter().all(|b| b == &bytes[0]));
+        assert_eq!(read_exr(&dir.join("0.exr")).unwrap().2, px);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
