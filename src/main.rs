@@ -294,18 +294,20 @@ fn render(args: RenderArgs) -> Result<()> {
             Some(_) => render_progressive(&ctx, &settings, &budget, film, &cancel, &on_progress, &mut |_| {}),
         })
     };
+    // `--repeat`: the earlier renders' seconds per sample; the last one's
+    // film, stats and time are the ones written and reported.
     let mut earlier = Vec::new();
-    for _ in 1..args.repeat {
+    let (film, stats, seconds) = loop {
         let started = Instant::now();
         let mut film = Film::new(width, height);
-        render_once(&mut film)?;
-        earlier.push(started.elapsed().as_secs_f64() / film.samples.max(1) as f64);
+        let stats: PassStats = render_once(&mut film)?;
+        let seconds = started.elapsed().as_secs_f64();
+        if earlier.len() + 1 >= args.repeat as usize {
+            break (film, stats, seconds);
+        }
+        earlier.push(seconds / film.samples.max(1) as f64);
         progress.reset();
-    }
-    let started = Instant::now();
-    let mut film = Film::new(width, height);
-    let stats: PassStats = render_once(&mut film)?;
-    let seconds = started.elapsed().as_secs_f64();
+    };
     progress.finish_and_clear();
 
     let pixels = film.mean();

@@ -1,6 +1,9 @@
 //! The `glint` binary as a user runs it: outputs, summary line, and one-line
 //! errors with a non-zero exit for bad input.
 
+mod common;
+
+use common::shared_dir;
 use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
 
@@ -69,8 +72,7 @@ fn repeated_renders_write_the_one_image_and_report_each_time() {
 fn the_pgo_training_renders_every_kernel() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = temp_dir("pgo-training");
-    let shared = std::env::var_os("GLINT_SHARED_DIR").map_or(root.join("../shared"), PathBuf::from);
-    let o = Command::new("python3").arg(root.join("tests/pgo_training.py")).arg(env!("CARGO_BIN_EXE_glint")).arg(&dir).arg(&shared).output().expect("run python3");
+    let o = Command::new("python3").arg(root.join("tests/pgo_training.py")).arg(env!("CARGO_BIN_EXE_glint")).arg(&dir).arg(shared_dir()).output().expect("run python3");
     let (out, err) = (String::from_utf8_lossy(&o.stdout), stderr(&o));
     assert!(o.status.success(), "{out}{err}");
     let trained: std::collections::BTreeSet<&str> = out.lines().filter_map(|l| l.strip_prefix("trained kernel: ")).collect();
@@ -137,9 +139,7 @@ fn unwritable_output_is_a_clean_error() {
 
 #[test]
 fn inspect_reports_a_sample_model() {
-    // ../shared beside the repository, or GLINT_SHARED_DIR (as tests/corpus.rs).
-    let shared = std::env::var_os("GLINT_SHARED_DIR").map(std::path::PathBuf::from).unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"));
-    let f = shared.join("gltf-samples/Box/Box.gltf");
+    let f = shared_dir().join("gltf-samples/Box/Box.gltf");
     let o = Command::new(env!("CARGO_BIN_EXE_glint")).args(["inspect", f.to_str().unwrap()]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);

@@ -6,6 +6,9 @@
 //! The files live in `../shared` beside the repository (CI puts them
 //! there); GLINT_SHARED_DIR overrides the location.
 
+mod common;
+
+use common::shared_dir;
 use glint::integrator::Context;
 use glint::job::{prepare, JobOptions, SceneExtras};
 use glint::loader::{inspect_file, load_file, LoadOptions};
@@ -14,12 +17,6 @@ use std::sync::atomic::AtomicBool;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
-
-fn shared_dir() -> PathBuf {
-    std::env::var_os("GLINT_SHARED_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"))
-}
 
 fn files_with_extension(dir: &Path, exts: &[&str], out: &mut Vec<PathBuf>) {
     let mut entries: Vec<_> = std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())).map(|e| e.unwrap().path()).collect();

@@ -12,6 +12,14 @@ use glint::scene::{Scene, Triangle};
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
+/// Khronos' test files: `../shared` beside the repository (CI puts them
+/// there), or GLINT_SHARED_DIR.
+pub fn shared_dir() -> std::path::PathBuf {
+    std::env::var_os("GLINT_SHARED_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"))
+}
+
 /// Render all of `settings.spp` in one pass on `threads` threads; the image
 /// is the per-pixel mean. The duration is of rendering only (no BVH build).
 pub fn render_timed(scene: &Scene, settings: &RenderSettings, threads: usize) -> (Vec<Vec3>, PassStats, Duration) {
