@@ -124,7 +124,9 @@ pub struct PassStats {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Phases {
     /// Once a pass: the materials' prepared lobes, the MIS scale of the
-    /// connections (its own subpaths) and the camera rays' triangle bins.
+    /// connections (its own subpaths) and the camera rays' triangle bins;
+    /// the wall time they add beside the first light subpaths, which run
+    /// with the bins.
     pub setup: Duration,
     /// Tracing light subpaths and adding light tracing's splats.
     pub light_subpaths: Duration,
@@ -211,39 +213,56 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let connect = AREA && ctx.traces_light_paths(settings);
     let chunk = if connect { SAMPLES_PER_LIGHT_TRACE } else { samples.len().max(1) as u32 };
     let mut total = PassStats::default();
-    let mis_scale = if connect {
-        let (scale, rays) = LightVertices::mis_scale::<B>(ctx, &prepared, settings.seed, settings.max_depth);
-        total.rays.bounce += rays;
-        scale
-    } else {
-        1.0
+    // Light tracing (light_tracing.rs): subpaths per sample index that
+    // reach the camera, n_T.
+    let tracing_for = |mis_scale| (connect && settings.light_tracing).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
+    let trace_lights = |range: Range<u32>, mis_scale: f32| {
+        let started = Instant::now();
+        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, per_sample, settings.max_depth, mis_scale);
+        (traced, started.elapsed())
     };
+    // Camera rays' first hits found without the BVH where that is
+    // cheaper; a benchmark's ray log wants every ray through the BVH, and
+    // surfaces with alpha are decided ray by ray.
+    let bin_camera_rays = || (ctx.bin_camera_rays && ctx.ray_log.is_none() && ctx.features.alpha == 0).then(|| CameraHits::new(&ctx.accel, &ctx.scene.triangles, &lens, w, h, TILE, samples.len() as u32)).flatten();
+    // The bins beside the connections' MIS scale and the first light
+    // subpaths, which do not need them: each of the three has a serial
+    // part that left the other thread idle (a 1-spp render's set-up ran
+    // no faster on two threads than on one).
+    let (camera_hits, (mis_scale, mut first_lights)) = rayon::join(bin_camera_rays, || {
+        if !connect {
+            return ((1.0, 0), None);
+        }
+        let scale = LightVertices::mis_scale::<B>(ctx, &prepared, settings.seed, settings.max_depth);
+        let first = samples.start..(samples.start + chunk).min(samples.end);
+        let traced = (!first.is_empty()).then(|| trace_lights(first, scale.0));
+        (scale, traced)
+    });
+    let (mis_scale, scale_rays) = mis_scale;
+    total.rays.bounce += scale_rays;
     // The pass's sums, added to the film once it is complete. A film
     // without samples holds zeros: its own sums serve, and a cancel zeroes
     // them again (a 1-spp render spent 1% of its time on a second buffer).
     let empty = film.samples == 0;
     let mut pass_sum = if empty { std::mem::take(&mut film.sum) } else { vec![Vec3::ZERO; film.sum.len()] };
-    // Light tracing (light_tracing.rs): subpaths per sample index that
-    // reach the camera, n_T.
-    let tracing = (connect && settings.light_tracing).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
-    // Camera rays' first hits found without the BVH where that is
-    // cheaper; a benchmark's ray log wants every ray through the BVH, and
-    // surfaces with alpha are decided ray by ray.
-    let camera_hits = (ctx.bin_camera_rays && ctx.ray_log.is_none() && ctx.features.alpha == 0).then(|| CameraHits::new(&ctx.accel, &ctx.scene.triangles, &lens, w, h, TILE, samples.len() as u32)).flatten();
     total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
-    total.phases.setup = started.elapsed();
+    // What the set-up added to the wall clock beside the first subpaths.
+    total.phases.setup = started.elapsed().saturating_sub(first_lights.as_ref().map_or(Duration::ZERO, |(_, took)| *took));
     let mut start = samples.start;
     while start < samples.end {
         let range = start..(start + chunk).min(samples.end);
         start = range.end;
         let light_vertices = if connect {
-            let subpaths_started = Instant::now();
-            let (vertices, splats, rays) = LightVertices::for_samples::<B>(ctx, &prepared, tracing.as_ref(), settings.seed, range.clone(), per_sample, settings.max_depth, mis_scale);
+            let merge_started = Instant::now();
+            let ((vertices, splats, rays), took) = match first_lights.take() {
+                Some(first) => first,
+                None => trace_lights(range.clone(), mis_scale),
+            };
             total.rays.add(&rays);
             for splat in splats {
                 pass_sum[splat.pixel as usize] += splat.value;
             }
-            total.phases.light_subpaths += subpaths_started.elapsed();
+            total.phases.light_subpaths += took + merge_started.elapsed();
             Some(vertices)
         } else {
             None
