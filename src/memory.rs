@@ -6,3 +6,71 @@ pub fn peak_rss_kib() -> Option<u64> {
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     line.split_whitespace().nth(1)?.parse().ok()
 }
+
+use crate::Vec3;
+use std::alloc::Layout;
+
+/// `n` zero vectors, their pages mapped by the kernel in one call. A fresh
+/// 256² film (1 MB) took 256 page faults one by one as it was zeroed,
+/// 0.36 ms of a 1-spp render's 17 on these virtual machines (about 1.4 µs
+/// a fault); `madvise(MADV_POPULATE_WRITE)` maps them together.
+pub fn zeroed_vec3s(n: usize) -> Vec<Vec3> {
+    let Ok(layout) = Layout::array::<Vec3>(n) else { return vec![Vec3::ZERO; n] };
+    if layout.size() == 0 {
+        return Vec::new();
+    }
+    // SAFETY: the layout is Vec<Vec3>'s own for capacity n, and not empty;
+    // zeroed memory holds n valid vectors (0.0 is all zero bits), so the
+    // Vec owns an initialised allocation it can free.
+    unsafe {
+        let p = std::alloc::alloc_zeroed(layout);
+        if p.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        populate(p, layout.size());
+        Vec::from_raw_parts(p.cast::<Vec3>(), n, n)
+    }
+}
+
+/// Maps the whole pages within `len` bytes at `p` for writing. A hint: a
+/// kernel without MADV_POPULATE_WRITE (before Linux 5.14) refuses it, and
+/// the pages then fault in as they are first written.
+#[cfg(target_os = "linux")]
+fn populate(p: *mut u8, len: usize) {
+    // SAFETY: sysconf reads a constant; madvise is given whole pages of
+    // this allocation only, and populating changes no byte of them.
+    unsafe {
+        let page = match libc::sysconf(libc::_SC_PAGESIZE) {
+            size if size > 0 => size as usize,
+            _ => return,
+        };
+        let start = (p as usize).next_multiple_of(page);
+        let end = (p as usize + len) / page * page;
+        if end > start {
+            libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_POPULATE_WRITE);
+        }
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn populate(_: *mut u8, _: usize) {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every size from none to more than a page's worth holds zeros and
+    /// can be written, grown and dropped like any Vec.
+    #[test]
+    fn zeroed_vectors_are_zero_and_owned() {
+        for n in [0, 1, 255, 256, 257, 65536, 1 << 20] {
+            let mut v = zeroed_vec3s(n);
+            assert_eq!(v.len(), n);
+            assert!(v.iter().all(|x| *x == Vec3::ZERO), "{n}");
+            v.iter_mut().enumerate().for_each(|(i, x)| *x = Vec3::splat(i as f32));
+            v.push(Vec3::ONE);
+            assert_eq!(v[n], Vec3::ONE);
+            assert!(n == 0 || v[n - 1] == Vec3::splat((n - 1) as f32));
+        }
+    }
+}

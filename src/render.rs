@@ -97,7 +97,7 @@ pub struct Film {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
-        Film { width, height, sum: vec![Vec3::ZERO; width as usize * height as usize], samples: 0 }
+        Film { width, height, sum: crate::memory::zeroed_vec3s(width as usize * height as usize), samples: 0 }
     }
 
     /// The per-pixel mean: the Monte Carlo estimate.
@@ -244,7 +244,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // without samples holds zeros: its own sums serve, and a cancel zeroes
     // them again (a 1-spp render spent 1% of its time on a second buffer).
     let empty = film.samples == 0;
-    let mut pass_sum = if empty { std::mem::take(&mut film.sum) } else { vec![Vec3::ZERO; film.sum.len()] };
+    let mut pass_sum = if empty { std::mem::take(&mut film.sum) } else { crate::memory::zeroed_vec3s(film.sum.len()) };
     total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
     // What the set-up added to the wall clock beside the first subpaths.
     total.phases.setup = started.elapsed().saturating_sub(first_lights.as_ref().map_or(Duration::ZERO, |(_, took)| *took));
