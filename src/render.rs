@@ -225,11 +225,19 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // cheaper; a benchmark's ray log wants every ray through the BVH, and
     // surfaces with alpha are decided ray by ray.
     let bin_camera_rays = || (ctx.bin_camera_rays && ctx.ray_log.is_none() && ctx.features.alpha == 0).then(|| CameraHits::new(&ctx.accel, &ctx.scene.triangles, &lens, w, h, TILE, samples.len() as u32)).flatten();
-    // The bins beside the connections' MIS scale and the first light
-    // subpaths, which do not need them: each of the three has a serial
-    // part that left the other thread idle (a 1-spp render's set-up ran
-    // no faster on two threads than on one).
-    let (camera_hits, (mis_scale, mut first_lights)) = rayon::join(bin_camera_rays, || {
+    // The pass's sums, added to the film once it is complete. A film
+    // without samples holds zeros: its own sums serve, and a cancel zeroes
+    // them again (a 1-spp render spent 1% of its time on a second buffer).
+    let empty = film.samples == 0;
+    let mut pass_sum = if empty { std::mem::take(&mut film.sum) } else { crate::memory::zeroed_vec3s(film.sum.len()) };
+    // The bins, and the sums' pages mapped, beside the connections' MIS
+    // scale and the first light subpaths, which need neither: each of
+    // these has a serial part that left the other thread idle (a 1-spp
+    // render's set-up ran no faster on two threads than on one).
+    let (camera_hits, (mis_scale, mut first_lights)) = rayon::join(|| {
+        crate::memory::map_for_writing(&mut pass_sum);
+        bin_camera_rays()
+    }, || {
         if !connect {
             return ((1.0, 0), None);
         }
@@ -240,11 +248,6 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     });
     let (mis_scale, scale_rays) = mis_scale;
     total.rays.bounce += scale_rays;
-    // The pass's sums, added to the film once it is complete. A film
-    // without samples holds zeros: its own sums serve, and a cancel zeroes
-    // them again (a 1-spp render spent 1% of its time on a second buffer).
-    let empty = film.samples == 0;
-    let mut pass_sum = if empty { std::mem::take(&mut film.sum) } else { crate::memory::zeroed_vec3s(film.sum.len()) };
     total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
     // What the set-up added to the wall clock beside the first subpaths.
     total.phases.setup = started.elapsed().saturating_sub(first_lights.as_ref().map_or(Duration::ZERO, |(_, took)| *took));
