@@ -334,7 +334,7 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         let phases = &stats.phases;
         let (setup, subpaths, paths) = (phases.setup.as_secs_f64(), phases.light_subpaths.as_secs_f64(), phases.camera_paths.as_secs_f64());
-        glint::stderr_line!("time by phase: set-up {setup:.5} s (MIS scale, camera rays' bins), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film's memory, passes)",
+        glint::stderr_line!("time by phase: set-up {setup:.5} s (MIS scale, camera rays' bins, the sums' pages), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film, passes)",
             (seconds - setup - subpaths - paths).max(0.0));
         glint::stderr_line!("discarded non-finite samples: {}", stats.discarded);
         if let Some(kib) = glint::memory::peak_rss_kib() {

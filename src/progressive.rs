@@ -126,15 +126,17 @@ mod tests {
         assert!(film.samples >= 2 && film.samples < 1000, "{}", film.samples);
     }
 
+    /// Over several groups of light subpaths (four sample indices each),
+    /// the first traced beside the set-up: no phase is counted twice.
     #[test]
     fn a_pass_accounts_for_its_time_phase_by_phase() {
         let scene = cornell();
         let (ctx, _) = Context::new(&scene);
         for light_paths in [LightPaths::On, LightPaths::Off] {
-            let settings = RenderSettings { light_paths, ..settings(4) };
+            let settings = RenderSettings { light_paths, ..settings(12) };
             let mut film = Film::new(24, 24);
             let start = Instant::now();
-            let stats = render_pass(&ctx, &settings, &mut film, 0..4, &AtomicBool::new(false), &|_| {}).unwrap();
+            let stats = render_pass(&ctx, &settings, &mut film, 0..12, &AtomicBool::new(false), &|_| {}).unwrap();
             let wall = start.elapsed();
             let p = stats.phases;
             assert!(p.camera_paths > Duration::ZERO && p.setup + p.light_subpaths + p.camera_paths <= wall, "{p:?} of {wall:?}");

@@ -256,11 +256,11 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         let range = start..(start + chunk).min(samples.end);
         start = range.end;
         let light_vertices = if connect {
-            let merge_started = Instant::now();
             let ((vertices, splats, rays), took) = match first_lights.take() {
                 Some(first) => first,
                 None => trace_lights(range.clone(), mis_scale),
             };
+            let merge_started = Instant::now();
             total.rays.add(&rays);
             for splat in splats {
                 pass_sum[splat.pixel as usize] += splat.value;
