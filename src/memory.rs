@@ -1,4 +1,9 @@
-//! How much memory the process has used, for `--stats` and the benchmarks.
+//! Memory: how much the process has used, for `--stats` and the
+//! benchmarks, and large zeroed buffers whose pages the kernel maps in one
+//! call rather than one fault at a time.
+
+use crate::Vec3;
+use std::alloc::Layout;
 
 /// The process's peak resident set in KiB (VmHWM), where the OS reports it.
 pub fn peak_rss_kib() -> Option<u64> {
@@ -6,9 +11,6 @@ pub fn peak_rss_kib() -> Option<u64> {
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     line.split_whitespace().nth(1)?.parse().ok()
 }
-
-use crate::Vec3;
-use std::alloc::Layout;
 
 /// `n` zero vectors from the allocator's zeroed memory: a large block is
 /// fresh pages the kernel maps as they are first touched, or all at once
