@@ -9,7 +9,7 @@
 //! `--child FILE`), loads it, builds the BVH, renders 4 samples of a 128²
 //! image lit by a grey World (`--camera auto`, 4 bounces) and prints its
 //! peak resident set after loading and in all (the BVH build's temporary
-//! data, obvhs' binary tree and its CWBVH, sets the peak). The slope of a least-squares line through the peaks
+//! data, obvhs' binary tree and the plan of its collapse, sets the peak). The slope of a least-squares line through the peaks
 //! is the memory a million triangles cost; its intercept, what an empty
 //! scene costs.
 

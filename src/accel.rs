@@ -17,7 +17,11 @@ use crate::scene::Triangle;
 use crate::triangle_pack::{PackRay, TrianglePack};
 use crate::wide_bvh::WideBvh;
 use crate::Vec3;
+use crate::bvh_collapse::Plan;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::bvh2::Bvh2;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::ploc::PlocBuilder;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::BvhBuildParams;
@@ -90,15 +94,34 @@ pub(crate) fn intersect(tri: &RtTriangle, o: Vec3, d: Vec3, tmin: f32, tmax: f32
     (t > tmin && t < tmax).then_some((t, b1, b2))
 }
 
+fn obvhs_triangles(triangles: &[Triangle], subset: &[u32]) -> Vec<obvhs::triangle::Triangle> {
+    subset.iter().map(|&i| triangles[i as usize].p()).map(|[v0, v1, v2]| obvhs::triangle::Triangle { v0, v1, v2 }).collect()
+}
+
 /// obvhs's CWBVH over the given triangles.
 pub(crate) fn build_cwbvh(triangles: &[Triangle], subset: &[u32]) -> CwBvh {
-    let bvh_tris: Vec<obvhs::triangle::Triangle> = subset
-        .iter()
-        .map(|&i| &triangles[i as usize])
-        .map(|t| t.p())
-        .map(|[v0, v1, v2]| obvhs::triangle::Triangle { v0, v1, v2 })
-        .collect();
-    build_cwbvh_from_tris(&bvh_tris, BUILD_PARAMS, &mut Duration::default())
+    build_cwbvh_from_tris(&obvhs_triangles(triangles, subset), BUILD_PARAMS, &mut Duration::default())
+}
+
+/// obvhs' binary tree over the given triangles, one a leaf.
+pub(crate) fn binary_tree(triangles: &[Triangle], subset: &[u32]) -> Bvh2 {
+    let tris = obvhs_triangles(triangles, subset);
+    let p = BUILD_PARAMS;
+    let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(p.ploc_search_distance, &tris, (0..tris.len() as u32).collect(), p.sort_precision, p.search_depth_threshold);
+    drop(tris);
+    ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
+    bvh2
+}
+
+/// The wide BVH over the given triangles, and their places in `subset`
+/// in leaf order: obvhs' binary tree (`BUILD_PARAMS`' PLOC and
+/// reinsertion, as its CWBVH builder makes it), collapsed by
+/// bvh_collapse.rs.
+pub(crate) fn build_wide(triangles: &[Triangle], subset: &[u32]) -> (WideBvh, Vec<u32>) {
+    let bvh2 = binary_tree(triangles, subset);
+    let plan = Plan::new(&bvh2);
+    let corners: Vec<[Vec3; 3]> = subset.iter().map(|&i| triangles[i as usize].p()).collect();
+    WideBvh::from_bvh2(&bvh2, &plan, &corners)
 }
 
 impl Accel {
@@ -115,10 +138,8 @@ impl Accel {
         if subset.is_empty() {
             return (Accel { bvh: WideBvh::empty(), packs: Vec::new(), pack_ids: Vec::new(), ids: Vec::new() }, start.elapsed());
         }
-        let cwbvh = build_cwbvh(triangles, subset);
-        let corners: Vec<[Vec3; 3]> = subset.iter().map(|&i| triangles[i as usize].p()).collect();
-        let bvh = WideBvh::from_cwbvh(&cwbvh, &corners);
-        let ids: Vec<u32> = cwbvh.primitive_indices.iter().map(|&i| subset[i as usize]).collect();
+        let (bvh, order) = build_wide(triangles, subset);
+        let ids: Vec<u32> = order.iter().map(|&i| subset[i as usize]).collect();
         let (mut packs, mut pack_ids) = (Vec::with_capacity(bvh.leaves.len()), Vec::with_capacity(bvh.leaves.len()));
         for &(first, count) in &bvh.leaves {
             let leaf = &ids[first as usize..(first + count) as usize];

@@ -2,6 +2,7 @@
 pub mod accel;
 pub mod affinity;
 pub mod bsdf;
+pub mod bvh_collapse;
 pub mod camera;
 pub mod camera_hits;
 pub mod console;

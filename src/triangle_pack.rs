@@ -1,5 +1,5 @@
-//! The triangles of one BVH leaf (at most 3, obvhs' CWBVH leaf size) as
-//! four SIMD lanes, tested against a ray at once by Möller–Trumbore.
+//! The triangles of one BVH leaf (at most 4, bvh_collapse.rs' leaf size)
+//! as four SIMD lanes, tested against a ray at once by Möller–Trumbore.
 //!
 //! An unused lane has a zero edge: its determinant is 0 and it never hits.
 

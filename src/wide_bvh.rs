@@ -1,13 +1,14 @@
-//! An 8-wide BVH with full-precision bounds, laid out from the tree obvhs
-//! builds, and its traversal.
+//! An 8-wide BVH with full-precision bounds, laid out from the binary tree
+//! obvhs builds, and its traversal.
 //!
-//! obvhs builds the tree (PLOC, reinsertion, collapse to 8 children with
-//! leaves of up to 3 triangles); its CWBVH stores each child's box in 8-bit
-//! quantised planes, made for GPUs, whose decoding was the costliest part
-//! of a CPU query. Here each node keeps its 8 children's boxes as f32 in
-//! structure-of-arrays form, two 4-lane halves per plane, so one node test
-//! is 12 SIMD subtract-multiply pairs (glam's Vec4: SSE2 or NEON) and the
-//! bounds are exact, recomputed from the triangles.
+//! obvhs builds the tree (PLOC, reinsertion); bvh_collapse.rs chooses its
+//! 8-wide nodes and leaves of up to 4 triangles. obvhs' own CWBVH stores
+//! each child's box in 8-bit quantised planes, made for GPUs, whose
+//! decoding was the costliest part of a CPU query. Here each node keeps its
+//! 8 children's boxes as f32 in structure-of-arrays form, two 4-lane halves
+//! per plane, so one node test is 12 SIMD subtract-multiply pairs (glam's
+//! Vec4: SSE2 or NEON) and the bounds are exact, computed from the
+//! triangles.
 //!
 //! Closest-hit queries visit hit children nearest first and skip a stacked
 //! child whose entry distance is past the closest hit found; any-hit
@@ -18,7 +19,8 @@
 use glam::Vec4;
 use crate::Vec3;
 use std::mem::MaybeUninit;
-use obvhs::cwbvh::CwBvh;
+use crate::bvh_collapse::{primitives_of, Plan, Slot};
+use obvhs::bvh2::Bvh2;
 
 /// A child that is a leaf: the high bit, then the leaf's number.
 const LEAF: u32 = 1 << 31;
@@ -39,8 +41,8 @@ struct Node {
 
 pub struct WideBvh {
     nodes: Vec<Node>,
-    /// Leaf n's triangles: places first..first + count of obvhs'
-    /// `primitive_indices` (at most 3).
+    /// Leaf n's triangles: places first..first + count (at most 4) of the
+    /// leaf order `from_bvh2` returns.
     pub leaves: Vec<(u32, u32)>,
     /// The most entries a query's stack can hold.
     stack_needed: usize,
@@ -167,42 +169,50 @@ impl WideBvh {
         WideBvh { nodes: Vec::new(), leaves: Vec::new(), stack_needed: 0 }
     }
 
-    /// The tree of `bvh`, its leaves indexing `bvh.primitive_indices`, with
-    /// every box recomputed from `triangles` (in obvhs' input order).
-    pub fn from_cwbvh(bvh: &CwBvh, triangles: &[[Vec3; 3]]) -> Self {
-        let mut tree = WideBvh { nodes: Vec::with_capacity(bvh.nodes.len()), leaves: Vec::new(), stack_needed: 0 };
-        let mut depth = 0;
-        if !bvh.nodes.is_empty() {
-            tree.convert(bvh, 0, 1, triangles, &mut depth);
+    /// The wide tree `plan` makes of obvhs' binary tree `bvh`, every box
+    /// computed from `triangles` (in obvhs' input order), and the input
+    /// indices of the triangles in leaf order, which `leaves` index.
+    pub fn from_bvh2(bvh: &Bvh2, plan: &Plan, triangles: &[[Vec3; 3]]) -> (Self, Vec<u32>) {
+        let mut tree = WideBvh { nodes: Vec::new(), leaves: Vec::new(), stack_needed: 0 };
+        let mut order = Vec::with_capacity(triangles.len());
+        if bvh.nodes.is_empty() {
+            return (tree, order);
         }
+        let mut depth = 0;
+        let root = if plan.root_is_leaf() { None } else { Some(0) };
+        tree.lay_out(bvh, plan, root, triangles, &mut order, 1, &mut depth);
         tree.stack_needed = 7 * depth + 8;
-        tree
+        (tree, order)
     }
 
-    /// Appends node `index` and its subtree (depth first, so a node's
-    /// children follow it); returns its place and its bounds.
-    fn convert(&mut self, bvh: &CwBvh, index: usize, level: usize, triangles: &[[Vec3; 3]], depth: &mut usize) -> (u32, Vec3, Vec3) {
-        let cw = &bvh.nodes[index];
+    /// Appends the wide node of binary node `inner` (None: a root whose
+    /// one child is the whole tree as a leaf) and its subtree, depth first
+    /// so that a node's children follow it; returns its place and bounds.
+    #[allow(clippy::too_many_arguments)]
+    fn lay_out(&mut self, bvh: &Bvh2, plan: &Plan, inner: Option<u32>, triangles: &[[Vec3; 3]], order: &mut Vec<u32>, level: usize, depth: &mut usize) -> (u32, Vec3, Vec3) {
         *depth = (*depth).max(level);
         let at = self.nodes.len();
         self.nodes.push(Node { planes: [[[Vec4::INFINITY; 2], [Vec4::NEG_INFINITY; 2]]; 3], child: [0; 8] });
+        let mut slots = [Slot { node: 0, leaf: true }; 8];
+        let count = match inner {
+            Some(n) => plan.children(bvh, n, &mut slots),
+            None => 1,
+        };
         let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for slot in 0..8 {
-            if cw.is_child_empty(slot) {
-                continue;
-            }
-            let (child, clo, chi) = if cw.is_leaf(slot) {
-                let (first, count) = cw.child_primitives(slot);
+        for (slot, s) in slots[..count].iter().enumerate() {
+            let (child, clo, chi) = if s.leaf {
+                let first = order.len();
+                primitives_of(bvh, s.node, order);
                 let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-                for i in first..first + count {
-                    for v in triangles[bvh.primitive_indices[i as usize] as usize] {
+                for &i in &order[first..] {
+                    for v in triangles[i as usize] {
                         (clo, chi) = (clo.min(v), chi.max(v));
                     }
                 }
-                self.leaves.push((first, count));
+                self.leaves.push((first as u32, (order.len() - first) as u32));
                 (LEAF | (self.leaves.len() - 1) as u32, clo, chi)
             } else {
-                self.convert(bvh, cw.child_node_index(slot) as usize, level + 1, triangles, depth)
+                self.lay_out(bvh, plan, Some(s.node), triangles, order, level + 1, depth)
             };
             let node = &mut self.nodes[at];
             node.child[slot] = child;
@@ -391,11 +401,10 @@ mod tests {
             .collect();
         let corners: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.p()).collect();
         let all: Vec<u32> = (0..triangles.len() as u32).collect();
-        let cwbvh = crate::accel::build_cwbvh(&triangles, &all);
-        let small = WideBvh::from_cwbvh(&cwbvh, &corners);
-        let mut heap = WideBvh::from_cwbvh(&cwbvh, &corners);
+        let (small, order) = crate::accel::build_wide(&triangles, &all);
+        let (mut heap, _) = crate::accel::build_wide(&triangles, &all);
         heap.stack_needed = STACK + 1;
-        let tris: Vec<[Vec3; 3]> = cwbvh.primitive_indices.iter().map(|&i| corners[i as usize]).collect();
+        let tris: Vec<[Vec3; 3]> = order.iter().map(|&i| corners[i as usize]).collect();
         let closest = |bvh: &WideBvh, o: Vec3, d: Vec3| {
             let mut best = f32::INFINITY;
             bvh.closest(o, d, f32::INFINITY, |leaf, mut limit| {
