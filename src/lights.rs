@@ -569,13 +569,21 @@ impl Lights {
     /// estimated irradiance, kept in [0.05, 0.95] so that neither side
     /// starves where the estimate is crude.
     fn distant_probability(&self, p: Vec3, mis: bool) -> f32 {
+        self.distant_probability_keeping(p, mis, &mut None)
+    }
+
+    /// `distant_probability`, leaving in `weights` the group's weights at
+    /// `p` where it needed them, so that a caller who needs them too does
+    /// not compute them again: behind portals each is their solid angle,
+    /// which had been computed two to five times a vertex.
+    fn distant_probability_keeping(&self, p: Vec3, mis: bool, weights: &mut Option<DistantWeights>) -> f32 {
         if !self.has_distant() {
             return 0.0;
         }
         if self.distribution.is_empty() {
             return 1.0;
         }
-        let weight = self.distant_weights(p, mis).total;
+        let weight = weights.get_or_insert_with(|| self.distant_weights(p, mis)).total;
         if !(weight > 0.0) {
             return 0.0;
         }
@@ -585,9 +593,8 @@ impl Lights {
 
     /// The World's share of the distant group's picks: all of them when
     /// the World is the only light.
-    fn world_in_group(&self, p: Vec3, mis: bool) -> f32 {
-        let DistantWeights { world, total } = self.distant_weights(p, mis);
-        if total > 0.0 { world / total } else { 1.0 }
+    fn world_in_group(weights: DistantWeights) -> f32 {
+        if weights.total > 0.0 { weights.world / weights.total } else { 1.0 }
     }
 
     /// The probability of picking the World for a point at `p`.
@@ -595,7 +602,9 @@ impl Lights {
         if !self.has_world() {
             return 0.0;
         }
-        self.distant_probability(p, mis) * self.world_in_group(p, mis)
+        let mut weights = None;
+        let distant = self.distant_probability_keeping(p, mis, &mut weights);
+        distant * Self::world_in_group(weights.unwrap_or_else(|| self.distant_weights(p, mis)))
     }
 
     /// Area density of the points of emitting scene triangle `triangle`,
@@ -620,7 +629,9 @@ impl Lights {
     /// point at `p` of normal `n`.
     pub fn punctual_probability(&self, index: usize, p: Vec3, n: Vec3, mis: bool) -> f32 {
         if let Some(&(_, irradiance)) = self.suns.iter().find(|&&(i, _)| i == index) {
-            return self.distant_probability(p, mis) * (irradiance / self.distant_weights(p, mis).total);
+            let mut weights = None;
+            let distant = self.distant_probability_keeping(p, mis, &mut weights);
+            return distant * (irradiance / weights.unwrap_or_else(|| self.distant_weights(p, mis)).total);
         }
         let local = match &self.tree {
             Some(tree) => match tree.of_punctual[index] {
@@ -647,11 +658,12 @@ impl Lights {
         if self.is_empty() {
             return None;
         }
-        let distant = self.distant_probability(p, mis);
+        let mut weights = None;
+        let distant = self.distant_probability_keeping(p, mis, &mut weights);
         if u_pick < distant {
             // Within the group by irradiance: the World, then each sun.
-            let weights = self.distant_weights(p, mis);
-            let world = self.world_in_group(p, mis);
+            let weights = weights.unwrap_or_else(|| self.distant_weights(p, mis));
+            let world = Self::world_in_group(weights);
             let mut rest = u_pick / distant - world;
             if rest < 0.0 {
                 return Some(Picked::Chosen(LightChoice::World { probability: distant * world }));
