@@ -286,7 +286,7 @@ impl LightVertices {
     #[inline]
     pub fn prefetch(&self, u: u32) {
         if let Some(v) = self.vertices.get(self.index(u)) {
-            prefetch(v);
+            crate::memory::prefetch(v);
         }
     }
 
@@ -294,28 +294,6 @@ impl LightVertices {
     fn index(&self, u: u32) -> usize {
         ((u as u64 * self.vertices.len() as u64) >> 32) as usize
     }
-}
-
-/// Asks the CPU to load every cache line of `value` (a hint: it cannot
-/// fault, and does nothing where there is no such instruction).
-#[inline(always)]
-fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let start = value as *const T as *const i8;
-        let mut line = 0;
-        while line < std::mem::size_of::<T>() {
-            // SAFETY: prefetching any address is safe; these are inside `value`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.add(line)) };
-            line += 64;
-        }
-        // SAFETY: as above: `value`'s last byte, whose line the loop misses
-        // when `value` does not start on a line.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>(start.add(std::mem::size_of::<T>().saturating_sub(1))) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
 }
 
 /// Whether a light subpath can have a vertex on a surface and go on from

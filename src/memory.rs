@@ -1,6 +1,7 @@
 //! Memory: how much the process has used, for `--stats` and the
-//! benchmarks, and large zeroed buffers whose pages the kernel maps in one
-//! call rather than one fault at a time.
+//! benchmarks; large zeroed buffers whose pages the kernel maps in one
+//! call rather than one fault at a time; and loads into the cache ahead of
+//! a read.
 
 use crate::Vec3;
 use std::alloc::Layout;
@@ -86,4 +87,25 @@ mod tests {
             assert!(v[..=n].iter().enumerate().all(|(i, x)| *x == if i < n { Vec3::splat(i as f32) } else { Vec3::ONE }), "{n} after writing");
         }
     }
+}
+
+/// Asks the CPU to load every cache line `value` lies on (a hint: it
+/// cannot fault, and does nothing where there is no such instruction).
+#[inline(always)]
+pub fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let start = value as *const T as *const i8;
+        // From the start of the line `value` begins on to its end.
+        let mut line = start.wrapping_sub(start as usize % 64);
+        let end = start.wrapping_add(std::mem::size_of::<T>());
+        while line < end {
+            // SAFETY: a prefetch never faults, whatever the address.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(line) };
+            line = line.wrapping_add(64);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
 }
