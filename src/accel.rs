@@ -1,11 +1,12 @@
-//! Ray queries over the scene's triangles. obvhs builds the tree (a
-//! compressed wide BVH, CWBVH); wide_bvh.rs lays it out again with
+//! Ray queries over the scene's triangles. obvhs builds a binary tree;
+//! bvh_collapse.rs makes it 8-wide, and wide_bvh.rs lays it out with
 //! full-precision boxes and traverses it. Triangle data is stored in BVH
 //! leaf order so a leaf's triangles sit together in memory.
 //!
-//! Traversing obvhs 0.4.0's CWBVH directly had three pitfalls, which are
-//! why `glint render --traversal` still compares against it: it misses
-//! hits for rays with a `-0.0` direction component; its
+//! Traversing obvhs 0.4.0's own compressed wide BVH (CWBVH) directly had
+//! three pitfalls (`glint render --traversal` still compares against it,
+//! as a yardstick): it misses hits for rays with a `-0.0` direction
+//! component; its
 //! `Triangle::compute_barycentric` is wrong (hits here are computed by our
 //! own Möller–Trumbore test); and its node test ignores the ray's tmin and
 //! culls every node the ray leaves within 1e-4 (a fixed `EPSILON` in
@@ -28,7 +29,8 @@ use obvhs::BvhBuildParams;
 use std::time::Duration;
 
 /// Build preset: the medium PLOC build with reinsertion — close to Embree's
-/// build time with faster traversal (obvhs' own description).
+/// build time with faster traversal (obvhs' own description). Its binary
+/// tree is what Glint collapses; its CWBVH settings serve the yardstick.
 pub const BUILD_PARAMS: BvhBuildParams = BvhBuildParams::medium_build();
 
 #[derive(Clone, Copy, Debug)]

@@ -64,6 +64,27 @@ fn populate(p: *mut u8, len: usize) {
 #[cfg(not(target_os = "linux"))]
 fn populate(_: *mut u8, _: usize) {}
 
+/// Asks the CPU to load every cache line `value` lies on (a hint: it
+/// cannot fault, and does nothing where there is no such instruction).
+#[inline(always)]
+pub fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let start = value as *const T as *const i8;
+        // From the start of the line `value` begins on to its end.
+        let mut line = start.wrapping_sub(start as usize % 64);
+        let end = start.wrapping_add(std::mem::size_of::<T>());
+        while line < end {
+            // SAFETY: a prefetch never faults, whatever the address.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(line) };
+            line = line.wrapping_add(64);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -89,23 +110,3 @@ mod tests {
     }
 }
 
-/// Asks the CPU to load every cache line `value` lies on (a hint: it
-/// cannot fault, and does nothing where there is no such instruction).
-#[inline(always)]
-pub fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let start = value as *const T as *const i8;
-        // From the start of the line `value` begins on to its end.
-        let mut line = start.wrapping_sub(start as usize % 64);
-        let end = start.wrapping_add(std::mem::size_of::<T>());
-        while line < end {
-            // SAFETY: a prefetch never faults, whatever the address.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(line) };
-            line = line.wrapping_add(64);
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
-}

@@ -54,7 +54,7 @@ pub struct WideBvh {
 /// while it tests the leaves of the one before: where the tree does not
 /// fit a core's L2 (1–2 MB on these machines). Replayed rays on spheres of
 /// 250k, 500k and 1M triangles (4, 8 and 16 MB of nodes; medians of 6–8
-/// runs): bounce and shadow rays 0–4%, 4–6% and 10–13% faster; on the
+/// runs): bounce and shadow rays 0–4%, 4–6% and 7–13% faster; on the
 /// benchmark scenes (at most 0.2 MB) the prefetches cost the gold sphere
 /// 2.0% ± 0.6 of its 1-spp time and gained nothing.
 const PREFETCH_ABOVE: usize = 2 << 20;
