@@ -591,6 +591,14 @@ impl Lights {
         if share.is_finite() { share.clamp(0.05, 0.95) } else { 0.5 }
     }
 
+    /// `distant_probability` and the group's weights at `p`, each computed
+    /// once, for callers that need both.
+    fn distant_group(&self, p: Vec3, mis: bool) -> (f32, DistantWeights) {
+        let mut weights = None;
+        let distant = self.distant_probability_keeping(p, mis, &mut weights);
+        (distant, weights.unwrap_or_else(|| self.distant_weights(p, mis)))
+    }
+
     /// The World's share of the distant group's picks: all of them when
     /// the World is the only light.
     fn world_in_group(weights: DistantWeights) -> f32 {
@@ -602,9 +610,8 @@ impl Lights {
         if !self.has_world() {
             return 0.0;
         }
-        let mut weights = None;
-        let distant = self.distant_probability_keeping(p, mis, &mut weights);
-        distant * Self::world_in_group(weights.unwrap_or_else(|| self.distant_weights(p, mis)))
+        let (distant, weights) = self.distant_group(p, mis);
+        distant * Self::world_in_group(weights)
     }
 
     /// Area density of the points of emitting scene triangle `triangle`,
@@ -629,9 +636,8 @@ impl Lights {
     /// point at `p` of normal `n`.
     pub fn punctual_probability(&self, index: usize, p: Vec3, n: Vec3, mis: bool) -> f32 {
         if let Some(&(_, irradiance)) = self.suns.iter().find(|&&(i, _)| i == index) {
-            let mut weights = None;
-            let distant = self.distant_probability_keeping(p, mis, &mut weights);
-            return distant * (irradiance / weights.unwrap_or_else(|| self.distant_weights(p, mis)).total);
+            let (distant, weights) = self.distant_group(p, mis);
+            return distant * (irradiance / weights.total);
         }
         let local = match &self.tree {
             Some(tree) => match tree.of_punctual[index] {
