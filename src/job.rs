@@ -112,6 +112,34 @@ impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     }
 }
 
+/// The brightest emitter or World a scene may have (W·sr⁻¹·m⁻²): 10^13
+/// times the Sun's disk. Far below f32::MAX, so that the image's sums of
+/// the samples that see it stay finite (render::MAX_SAMPLE, 10^4 above
+/// it, is where a sample is dropped); an emission strength of 3·10^38,
+/// which glTF allows, had made pixels infinite.
+pub const MAX_RADIANCE: f32 = 1e20;
+
+/// Every emitting material (a glTF emission × its strength, a Blender area
+/// light's power over its area), every point, spot and sun (its intensity
+/// in W·sr⁻¹, a sun's irradiance in W·m⁻²: the radiance of a surface it
+/// lights at 1 m is of that order) and the World's colour within
+/// `MAX_RADIANCE`.
+fn check_radiance(scene: &Scene) -> Result<(), String> {
+    let too_bright = |v: Vec3| !(v.max_element() <= MAX_RADIANCE);
+    if let Some(m) = scene.materials.iter().find(|m| too_bright(m.emission)) {
+        // A lamp's material is named as its light ("area light 'Key'").
+        let what = if m.lamp { m.name.clone() } else { format!("material '{}'", m.name) };
+        return Err(format!("{what} emits {:e} W·sr⁻¹·m⁻²; Glint renders emitters up to {MAX_RADIANCE:e}", m.emission.max_element()));
+    }
+    if let Some(l) = scene.punctual.iter().find(|l| too_bright(l.intensity)) {
+        return Err(format!("light '{}' has an intensity of {:e}; Glint renders lights up to {MAX_RADIANCE:e}", l.name, l.intensity.max_element()));
+    }
+    if too_bright(scene.background) {
+        return Err(format!("the World's colour is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", scene.background.max_element()));
+    }
+    Ok(())
+}
+
 /// Give the named punctual lights their Blender sizes.
 fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
     for size in sizes {
@@ -160,6 +188,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     }
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
     size_lights(&mut scene, extras.light_sizes).map_err(|e| format!("{name}: {e}"))?;
+    check_radiance(&scene).map_err(|e| format!("{name}: {e}"))?;
     if let Some(env) = &options.environment {
         let map = EnvironmentMap::load(&env.image, env.strength, env.rotation).map_err(|e| format!("{name}: {e}"))?;
         scene.environment = Some(map);

@@ -81,7 +81,7 @@ impl LightTracing<'_> {
         let value = f_y * v.alpha * (p_camera * wi_y.z / (v.to_prev.dot(y.ng) * self.subpaths));
         let weight = 1.0 / (1.0 + self.others_over_this(v, p_camera, pdf_y));
         let value = value * weight;
-        if !(value.is_finite() && weight > 0.0) {
+        if !(crate::render::sample_fits(value) && weight > 0.0) {
             return None;
         }
         *rays += 1;

@@ -316,7 +316,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let mrays = stats.rays.total() as f64 / seconds / 1e6;
     glint::stderr_line!("{width}x{height}, {} spp, {seconds:.3} s, {mrays:.1} Mrays/s -> {}", film.samples, args.output.display());
     if stats.discarded > 0 {
-        glint::stderr_line!("warning: {} sample(s) were NaN or infinite and were discarded", stats.discarded);
+        glint::stderr_line!("warning: {} sample(s) were NaN, infinite or above {:e} W·sr⁻¹·m⁻² and were discarded", stats.discarded, glint::render::MAX_SAMPLE);
     }
     if args.stats {
         let r = &stats.rays;
@@ -336,7 +336,7 @@ fn render(args: RenderArgs) -> Result<()> {
         let (setup, subpaths, paths) = (phases.setup.as_secs_f64(), phases.light_subpaths.as_secs_f64(), phases.camera_paths.as_secs_f64());
         glint::stderr_line!("time by phase: set-up {setup:.5} s (MIS scale, camera rays' bins, the sums' pages), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film, passes)",
             (seconds - setup - subpaths - paths).max(0.0));
-        glint::stderr_line!("discarded non-finite samples: {}", stats.discarded);
+        glint::stderr_line!("discarded samples (non-finite or above {:e}): {}", glint::render::MAX_SAMPLE, stats.discarded);
         if let Some(kib) = glint::memory::peak_rss_kib() {
             glint::stderr_line!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);
         }

@@ -107,11 +107,28 @@ impl Film {
     }
 }
 
+/// The largest sample (per channel, W·sr⁻¹·m⁻²) a pixel's sum takes.
+/// Sums are f32: two samples near f32::MAX, each finite, sum to infinity,
+/// where 2^48 samples of at most this stay finite — more than a pixel's
+/// samples and light tracing's splats into it can number. It is 10^17
+/// times the Sun's radiance; the inputs are bounded well below it
+/// (`job::MAX_RADIANCE`), so only a path that multiplies its light by 10^4
+/// or more reaches it.
+pub const MAX_SAMPLE: f32 = 1e24;
+
+/// Whether a sample (or a splat) may be added to a pixel's sum: finite and
+/// at most `MAX_SAMPLE` in every channel.
+#[inline]
+pub fn sample_fits(l: Vec3) -> bool {
+    l.is_finite() && l.abs().max_element() <= MAX_SAMPLE
+}
+
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PassStats {
     pub rays: RayCounts,
-    /// Samples whose radiance was NaN or infinite, dropped here. A correct
-    /// integrator never produces one; the tests assert this stays zero.
+    /// Samples whose radiance was NaN, infinite or above `MAX_SAMPLE`,
+    /// dropped here. A correct integrator never produces one from bounded
+    /// inputs; the tests assert this stays zero.
     pub discarded: u64,
     /// Ray-triangle tests per pixel sample that found the camera rays'
     /// first hits (camera_hits.rs); 0 where the BVH found them.
@@ -317,7 +334,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         let d = rays.dir(i);
                         let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
                         let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, lens.position(), d, lens.importance(d), settings, rng, &mut stats.rays, first);
-                        if l.is_finite() {
+                        if sample_fits(l) {
                             *sum += l;
                         } else {
                             stats.discarded += 1;

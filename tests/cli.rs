@@ -30,7 +30,7 @@ fn renders_the_embedded_default_scene_to_exr_and_png() {
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("40x30, 2 spp,") && err.contains("Mrays/s"), "summary line missing: {err}");
-    assert!(err.contains("discarded non-finite samples: 0"), "{err}");
+    assert!(err.contains("discarded samples (non-finite or above 1e24): 0"), "{err}");
     let (w, h, px) = glint::output::read_exr(&exr).unwrap();
     assert_eq!((w, h), (40, 30));
     assert!(px.iter().all(|p| p.is_finite()) && px.iter().any(|p| p.x > 0.0));
@@ -114,6 +114,35 @@ fn bad_input_gives_one_line_errors_and_keeps_old_output() {
         assert!(!err.contains("panicked"));
     }
     assert_eq!(std::fs::read(&exr).unwrap(), b"previous good image");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An emitter, a light or a World brighter than job::MAX_RADIANCE (1e20
+/// W·sr⁻¹·m⁻²) is refused in one line naming the file and what is too
+/// bright: an emission strength of 3e38, which glTF allows, had rendered
+/// infinite pixels.
+#[test]
+fn emitters_too_bright_to_sum_are_refused() {
+    let dir = temp_dir("too-bright");
+    let exr = dir.join("out.exr");
+    let mut cornell: serde_json::Value = serde_json::from_str(glint::DEFAULT_SCENE).unwrap();
+    let light = cornell["materials"].as_array_mut().unwrap().iter_mut().find(|m| m["name"] == "light").unwrap();
+    light["extensions"] = serde_json::json!({"KHR_materials_emissive_strength": {"emissiveStrength": 3e38}});
+    cornell["extensionsUsed"] = serde_json::json!(["KHR_materials_emissive_strength"]);
+    let bright = dir.join("bright.gltf");
+    std::fs::write(&bright, serde_json::to_string(&cornell).unwrap()).unwrap();
+    let o = glint(&["render", bright.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.lines().count() == 1, "{err}");
+    assert!(err.contains(bright.to_str().unwrap()) && err.contains("material 'light' emits 3e38") && err.contains("up to 1e20"), "{err}");
+    let o = glint(&["render", "--background", "3.4e38", "0", "0", "-o", exr.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.lines().count() == 1 && err.contains("the World's colour is 3.4e38"), "{err}");
+    // At the bound itself it renders, every pixel finite.
+    let o = glint(&["render", "--background", "1e20", "0", "0", "--spp", "4", "--width", "8", "--height", "8", "-o", exr.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(glint::output::read_exr(&exr).unwrap().2.iter().all(|p| p.is_finite()));
+    assert!(!dir.join("nothing").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -179,6 +179,26 @@ fn pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
     }
 }
 
+/// Replace one value under `root` (a JSON pointer; "" for all) of `doc`:
+/// mostly a number by a hostile number of its kind or a scaled one, now and
+/// then anything anywhere by a value of the wrong type. `pick(n)` draws
+/// below n. Returns "pointer = value", for the failure's message.
+fn mutate(doc: &mut serde_json::Value, root: &str, hostile: &[serde_json::Value], pick: &mut impl FnMut(usize) -> usize) -> String {
+    let mut all = Vec::new();
+    pointers(doc.pointer(root).unwrap(), root.to_string(), &mut all);
+    let numbers: Vec<&String> = all.iter().filter(|p| doc.pointer(p).is_some_and(|v| v.is_number())).collect();
+    let pointer = if pick(5) > 0 && !numbers.is_empty() { numbers[pick(numbers.len())].clone() } else { all[pick(all.len())].clone() };
+    let target = doc.pointer_mut(&pointer).unwrap();
+    let value = match (target.as_u64(), target.as_f64()) {
+        (Some(_), _) if pick(4) > 0 => serde_json::json!(HOSTILE_INTEGERS[pick(HOSTILE_INTEGERS.len())]),
+        (None, Some(x)) if pick(4) > 0 => serde_json::json!(if pick(2) == 0 { HOSTILE_FLOATS[pick(HOSTILE_FLOATS.len())] } else { x * [-1.0, 0.5, 2.0, 1000.0][pick(4)] }),
+        _ => hostile[pick(hostile.len())].clone(),
+    };
+    let what = format!("{pointer} = {value}");
+    *target = value;
+    what
+}
+
 /// Inspect, load and render a file in a worker thread: the outcome, or the
 /// panic's message.
 fn render_guarded(path: &Path, camera: Option<&str>) -> Result<Result<(), String>, String> {
@@ -227,20 +247,7 @@ fn mutated_sample_models_load_or_fail_cleanly() {
         let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
         let mut what = Vec::new();
         for _ in 0..1 + pick(3) {
-            let mut all = Vec::new();
-            pointers(&json, String::new(), &mut all);
-            let numbers: Vec<&String> = all.iter().filter(|p| json.pointer(p).is_some_and(|v| v.is_number())).collect();
-            // Mostly a number for a number of its kind; now and then
-            // anything anywhere.
-            let pointer = if pick(5) > 0 && !numbers.is_empty() { numbers[pick(numbers.len())].clone() } else { all[pick(all.len())].clone() };
-            let target = json.pointer_mut(&pointer).unwrap();
-            let value = match (target.as_u64(), target.as_f64()) {
-                (Some(_), _) if pick(4) > 0 => serde_json::json!(HOSTILE_INTEGERS[pick(HOSTILE_INTEGERS.len())]),
-                (None, Some(x)) if pick(4) > 0 => serde_json::json!(if pick(2) == 0 { HOSTILE_FLOATS[pick(HOSTILE_FLOATS.len())] } else { x * [-1.0, 0.5, 2.0, 1000.0][pick(4)] }),
-                _ => hostile[pick(hostile.len())].clone(),
-            };
-            what.push(format!("{pointer} = {value}"));
-            *target = value;
+            what.push(mutate(&mut json, "", &hostile, &mut pick));
         }
         let path = out_dir.join(format!("{name}-{i}.gltf"));
         std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
@@ -261,4 +268,109 @@ fn mutated_sample_models_load_or_fail_cleanly() {
     std::fs::remove_dir(&out_dir).unwrap();
     eprintln!("mutated sample models: {count} files, {rendered} rendered, {refused} clean errors");
     assert!(failures.is_empty(), "{} of {count} mutated files:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// The default Cornell box with a point, a spot and a sun
+/// (KHR_lights_punctual), and a render request that uses every field the
+/// add-on writes: each area light shape, a Spread, a portal, visible
+/// lamps, the three lights' sizes, an environment image or a World colour.
+fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_json::Value) {
+    use serde_json::json;
+    let mut scene: serde_json::Value = serde_json::from_str(glint::DEFAULT_SCENE).unwrap();
+    scene["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    scene["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"name": "Point", "type": "point", "color": [1, 0.9, 0.8], "intensity": 20},
+        {"name": "Spot", "type": "spot", "color": [1, 1, 1], "intensity": 30, "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.6}},
+        {"name": "Sun", "type": "directional", "color": [1, 1, 1], "intensity": 2}]}});
+    let first = scene["nodes"].as_array().unwrap().len();
+    for (i, node) in [
+        json!({"name": "PointNode", "translation": [0.2, 1.5, 0.3], "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+        json!({"name": "SpotNode", "translation": [-0.3, 1.6, 0.2], "rotation": [-std::f32::consts::FRAC_1_SQRT_2, 0, 0, std::f32::consts::FRAC_1_SQRT_2], "extensions": {"KHR_lights_punctual": {"light": 1}}}),
+        json!({"name": "SunNode", "rotation": [-0.5, 0.2, 0.1, 0.84], "extensions": {"KHR_lights_punctual": {"light": 2}}}),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        scene["nodes"].as_array_mut().unwrap().push(node);
+        let root = scene["scene"].as_u64().unwrap_or(0) as usize;
+        scene["scenes"][root]["nodes"].as_array_mut().unwrap().push(json!(first + i));
+    }
+    // Column-major, turned by `turn` about y and moved to `at`.
+    let matrix = |at: [f32; 3], turn: f32| json!([turn.cos(), 0, -turn.sin(), 0, 0, 1, 0, 0, turn.sin(), 0, turn.cos(), 0, at[0], at[1], at[2], 1]);
+    let mut request = json!({
+        "job": "mutated", "width": 12, "height": 12, "samples": 1, "max_depth": 6, "seed": 3, "mis": true, "bsdf": "principled",
+        "light_paths": true, "background": [0.1, 0.2, 0.3], "two_sided_emission": true, "default_surface": [0.8, 0.8, 0.8],
+        "single_scatter_materials": ["white"],
+        "area_lights": [
+            {"name": "Square", "shape": "SQUARE", "size": [0.3, 0.3], "matrix": matrix([0.0, 1.7, 0.0], 0.0), "color": [1, 1, 1], "power": 40, "spread": 0.8},
+            {"name": "Rectangle", "shape": "RECTANGLE", "size": [0.4, 0.2], "matrix": matrix([0.3, 1.5, -0.2], 0.4), "color": [1, 0.5, 0.2], "power": 20},
+            {"name": "Disk", "shape": "DISK", "size": [0.3, 0.3], "matrix": matrix([-0.3, 1.6, 0.1], 0.0), "color": [0.2, 0.5, 1], "power": 15, "spread": 1.2, "visible_camera": true},
+            {"name": "Ellipse", "shape": "ELLIPSE", "size": [0.4, 0.1], "matrix": matrix([0.1, 1.2, 0.4], 1.0), "color": [1, 1, 1], "power": 10},
+            {"name": "Window", "shape": "RECTANGLE", "size": [1, 1.2], "matrix": matrix([0.0, 1.0, 1.2], 0.0), "color": [1, 1, 1], "power": 500, "portal": true}],
+        "light_sizes": [{"name": "Point", "radius": 0.1, "soft_falloff": true}, {"name": "Spot", "radius": 0.05, "soft_falloff": false, "visible_camera": true}, {"name": "Sun", "angle": 0.05}]});
+    if let Some(image) = environment {
+        request["environment"] = json!({"image": image, "strength": 2.0, "rotation": 0.5});
+    }
+    (scene, request)
+}
+
+/// Render requests wrong in one to three places, beside a scene whose
+/// lights they size (sometimes the scene's lights are what is wrong):
+/// numbers replaced by hostile numbers of their kind or scaled, members by
+/// values of the wrong type. Each must render 12² at 2 samples (a sum)
+/// with finite pixels, or fail with a one-line error naming the file; never panic or
+/// hang. 2,000 from a fixed seed (GLINT_MUTATIONS=N for more; about 3 s).
+/// A World of 3.4·10^38, finite and ≥ 0 as the request's check asked, made
+/// pixels infinite (their f32 sums overflowed) in 1 of these 2,000 before
+/// `job::MAX_RADIANCE`; 20,000 found nothing else.
+#[test]
+fn mutated_render_requests_render_or_fail_cleanly() {
+    let dir = std::env::temp_dir().join(format!("glint-mutated-requests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sky = dir.join("sky.png");
+    image::RgbImage::from_fn(8, 4, |x, y| image::Rgb([(x * 30) as u8, (y * 60) as u8, 200])).save(&sky).unwrap();
+    let hostile = hostile_values();
+    let mut rng = glint::rng::Rng::new(2026, 12);
+    let mut pick = |n: usize| (rng.next_u32() as u64 * n as u64 >> 32) as usize;
+    let (mut rendered, mut refused, mut failures) = (0, 0, Vec::new());
+    let count: usize = std::env::var("GLINT_MUTATIONS").ok().and_then(|n| n.parse().ok()).unwrap_or(2000);
+    for i in 0..count {
+        let (mut scene, mut request) = lit_box_and_request((i % 2 == 1).then_some(sky.as_path()));
+        let mut what = Vec::new();
+        for _ in 0..1 + pick(3) {
+            // A fifth of the mutations go to the scene's lights and nodes.
+            let (doc, root) = if pick(5) > 0 { (&mut request, "") } else { (&mut scene, ["/extensions/KHR_lights_punctual", "/nodes"][pick(2)]) };
+            what.push(mutate(doc, root, &hostile, &mut pick));
+        }
+        let (scene_path, request_path) = (dir.join(format!("scene-{i}.gltf")), dir.join(format!("request-{i}.json")));
+        std::fs::write(&scene_path, serde_json::to_string(&scene).unwrap()).unwrap();
+        std::fs::write(&request_path, serde_json::to_string(&request).unwrap()).unwrap();
+        let request_file = request_path.clone();
+        let outcome = guarded(&scene_path, move |p| -> Result<(), String> {
+            let request = glint::request::RenderRequest::read(&request_file).map_err(|e| format!("{}: {e}", request_file.display()))?;
+            let options = JobOptions { width: Some(12), height: Some(12), samples: Some(2), ..JobOptions::default() }.or(&JobOptions::from(&request));
+            let job = prepare(Some(p), &options, (&request).into())?;
+            let (ctx, _) = Context::new(&job.scene);
+            let mut film = Film::new(12, 12);
+            let stats = render_pass(&ctx, &job.settings, &mut film, 0..2, &AtomicBool::new(false), &|_| {}).map_err(|e| e.to_string())?;
+            assert!(film.mean().iter().all(|p| p.is_finite()), "a pixel is not finite ({} samples dropped)", stats.discarded);
+            Ok(())
+        });
+        match outcome {
+            Ok(Ok(())) => rendered += 1,
+            Ok(Err(e)) => {
+                refused += 1;
+                let names_a_file = [&scene_path, &request_path].iter().any(|f| e.contains(&f.display().to_string()));
+                if e.contains('\n') || !names_a_file {
+                    failures.push(format!("{what:?}: not a one-line error naming the file: {e}"));
+                }
+            }
+            Err(panic) => failures.push(format!("{what:?}: panicked: {panic}")),
+        }
+        std::fs::remove_file(&scene_path).unwrap();
+        std::fs::remove_file(&request_path).unwrap();
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    eprintln!("mutated render requests: {count} pairs, {rendered} rendered, {refused} clean errors");
+    assert!(failures.is_empty(), "{} of {count} mutated requests:\n{}", failures.len(), failures.join("\n"));
 }

@@ -190,6 +190,24 @@ fn tiny_emitter_of_huge_strength_matches_the_point_light_limit() {
     }
 }
 
+/// A scene built past the input checks (job::MAX_RADIANCE) with an emitter
+/// of 3·10^38 W·sr⁻¹·m⁻² in view: every sample of it is finite, but two of
+/// them sum to infinity in an f32 pixel. The one filter every sample passes
+/// (render::sample_fits) drops and counts those above render::MAX_SAMPLE,
+/// and no pixel is infinite.
+#[test]
+fn samples_too_large_to_sum_are_dropped_not_summed_to_infinity() {
+    let mut scene = floor_scene(3.0, look_at(Vec3::new(0.0, 0.8, 0.8), Vec3::new(0.0, 1.0, 0.0), 1.2));
+    small_emitter(&mut scene, Vec3::new(0.0, 1.0, 0.0), 1e-2, 3e38);
+    let last = scene.materials.len() - 1;
+    scene.materials[last].double_sided = true;
+    let (img, stats) = render(&scene, &settings(16, 16, 8, 3, 1), 2);
+    assert!(stats.discarded > 0, "the emitter's own samples are above the bound");
+    assert!(img.iter().all(|p| p.is_finite() && p.min_element() >= 0.0));
+    assert!(glint::render::sample_fits(Vec3::splat(1e24)) && !glint::render::sample_fits(Vec3::new(0.0, 1.1e24, 0.0)));
+    assert!(!glint::render::sample_fits(Vec3::new(f32::NAN, 0.0, 0.0)) && !glint::render::sample_fits(Vec3::new(0.0, 0.0, f32::INFINITY)));
+}
+
 #[test]
 fn a_thousand_emitters_of_different_power() {
     let mut scene = floor_scene(3.0, look_at(Vec3::new(0.0, 0.8, 0.8), Vec3::ZERO, 0.8));
