@@ -49,6 +49,8 @@ pub struct EnvironmentMap {
     /// Mean over the sphere of the luminance above lum(mean): the part of
     /// the World light sampling is for (lights.rs).
     pub excess: f32,
+    /// Its brightest texel's largest channel, × strength (job.rs bounds it).
+    pub brightest: f32,
 }
 
 const SAMPLER: Sampler = Sampler { wrap_s: Wrap::Repeat, wrap_t: Wrap::ClampToEdge, nearest: false };
@@ -146,10 +148,12 @@ impl EnvironmentMap {
         // 4k map took to load): the mean, and each texel's luminance.
         let mut mean = Vec3::ZERO.as_dvec3();
         let mut luminances = Vec::with_capacity((w * h) as usize);
+        let mut brightest = 0.0f32;
         let sin_thetas = Self::sin_thetas(h);
         for (y, &sin_theta) in (0..h).zip(&sin_thetas) {
             for x in 0..w {
                 let c = texel_radiance(&image, encoding, x, y);
+                brightest = brightest.max(c.max_element());
                 mean += (c * sin_theta).as_dvec3();
                 luminances.push(luminance(c));
             }
@@ -161,7 +165,7 @@ impl EnvironmentMap {
         let above_mean = if excess > 0.0 { Table::above(&cell_bounds(&luminances, w as usize), mean_luminance, w as usize) } else { None };
         let excess = (excess * per_texel) as f32 * strength;
         let mean = (mean * per_texel).as_vec3a() * strength;
-        EnvironmentMap { image, encoding, strength, rotation, above_mean, whole: OnceLock::new(), mean, excess }
+        EnvironmentMap { image, encoding, strength, rotation, above_mean, whole: OnceLock::new(), mean, excess, brightest: brightest * strength }
     }
 
     /// Each row's mean sinθ over its span Δθ = π/h, (cosθ₀ − cosθ₁)/Δθ:

@@ -122,8 +122,8 @@ pub const MAX_RADIANCE: f32 = 1e20;
 /// Every emitting material (a glTF emission × its strength, a Blender area
 /// light's power over its area), every point, spot and sun (its intensity
 /// in W·sr⁻¹, a sun's irradiance in W·m⁻²: the radiance of a surface it
-/// lights at 1 m is of that order) and the World's colour within
-/// `MAX_RADIANCE`.
+/// lights at 1 m is of that order), the World's colour and its image's
+/// brightest texel × strength within `MAX_RADIANCE`.
 fn check_radiance(scene: &Scene) -> Result<(), String> {
     let too_bright = |v: Vec3| !(v.max_element() <= MAX_RADIANCE);
     if let Some(m) = scene.materials.iter().find(|m| too_bright(m.emission)) {
@@ -136,6 +136,9 @@ fn check_radiance(scene: &Scene) -> Result<(), String> {
     }
     if too_bright(scene.background) {
         return Err(format!("the World's colour is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", scene.background.max_element()));
+    }
+    if let Some(env) = scene.environment.as_ref().filter(|e| !(e.brightest <= MAX_RADIANCE)) {
+        return Err(format!("the environment image's brightest texel × strength is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", env.brightest));
     }
     Ok(())
 }
@@ -188,11 +191,11 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     }
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
     size_lights(&mut scene, extras.light_sizes).map_err(|e| format!("{name}: {e}"))?;
-    check_radiance(&scene).map_err(|e| format!("{name}: {e}"))?;
     if let Some(env) = &options.environment {
         let map = EnvironmentMap::load(&env.image, env.strength, env.rotation).map_err(|e| format!("{name}: {e}"))?;
         scene.environment = Some(map);
     }
+    check_radiance(&scene).map_err(|e| format!("{name}: {e}"))?;
     // A previewed asset without lights is lit by a white World.
     let unlit = scene.punctual.is_empty() && !scene.materials.iter().any(|m| m.is_emissive());
     if options.camera.as_deref() == Some(loader::AUTO_CAMERA) && options.background.is_none() && options.environment.is_none() && unlit {
