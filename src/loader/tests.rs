@@ -122,7 +122,7 @@ fn world_transforms_through_the_hierarchy_trs_and_matrix() {
     d["nodes"] = json!([
         {"name": "Cam", "camera": 0, "translation": [0, 0, 5]},
         {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 10,0,0,1], "children": [2]},
-        {"mesh": 0, "scale": [2, 2, 2], "rotation": [0, 0, 0.70710678, 0.70710678]}
+        {"mesh": 0, "scale": [2, 2, 2], "rotation": [0, 0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2]}
     ]);
     let s = load(&d).unwrap();
     // Vertex (1,0,0) → scaled (2,0,0) → rotated (0,2,0) → translated (10,2,0).
