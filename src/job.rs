@@ -132,7 +132,8 @@ fn check_radiance(scene: &Scene) -> Result<(), String> {
         return Err(format!("{what} emits {:e} W·sr⁻¹·m⁻²; Glint renders emitters up to {MAX_RADIANCE:e}", m.emission.max_element()));
     }
     if let Some(l) = scene.punctual.iter().find(|l| too_bright(l.intensity)) {
-        return Err(format!("light '{}' has an intensity of {:e}; Glint renders lights up to {MAX_RADIANCE:e}", l.name, l.intensity.max_element()));
+        let unit = if l.kind == PunctualKind::Sun { "W·m⁻²" } else { "W·sr⁻¹" };
+        return Err(format!("light '{}' has an intensity of {:e} {unit}; Glint renders lights up to {MAX_RADIANCE:e}", l.name, l.intensity.max_element()));
     }
     if too_bright(scene.background) {
         return Err(format!("the World's colour is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", scene.background.max_element()));

@@ -135,6 +135,17 @@ fn emitters_too_bright_to_sum_are_refused() {
     let err = stderr(&o);
     assert!(!o.status.success() && err.lines().count() == 1, "{err}");
     assert!(err.contains(bright.to_str().unwrap()) && err.contains("material 'light' emits 3e38") && err.contains("up to 1e20"), "{err}");
+    let mut lit: serde_json::Value = serde_json::from_str(glint::DEFAULT_SCENE).unwrap();
+    lit["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+    lit["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [{"name": "Bulb", "type": "point", "intensity": 1e30}]}});
+    lit["nodes"].as_array_mut().unwrap().push(serde_json::json!({"translation": [0, 1, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    let bulb = lit["nodes"].as_array().unwrap().len() - 1;
+    lit["scenes"][0]["nodes"].as_array_mut().unwrap().push(serde_json::json!(bulb));
+    let lit_path = dir.join("bulb.gltf");
+    std::fs::write(&lit_path, serde_json::to_string(&lit).unwrap()).unwrap();
+    let o = glint(&["render", lit_path.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.lines().count() == 1 && err.contains("light 'Bulb' has an intensity of 1e30 W·sr⁻¹"), "{err}");
     let o = glint(&["render", "--background", "3.4e38", "0", "0", "-o", exr.to_str().unwrap()]);
     let err = stderr(&o);
     assert!(!o.status.success() && err.lines().count() == 1 && err.contains("the World's colour is 3.4e38"), "{err}");
