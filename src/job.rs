@@ -125,20 +125,20 @@ pub const MAX_RADIANCE: f32 = 1e20;
 /// lights at 1 m is of that order), the World's colour and its image's
 /// brightest texel × strength within `MAX_RADIANCE`.
 fn check_radiance(scene: &Scene) -> Result<(), String> {
-    let too_bright = |v: Vec3| !(v.max_element() <= MAX_RADIANCE);
-    if let Some(m) = scene.materials.iter().find(|m| too_bright(m.emission)) {
+    let too_bright = |v: f32| !(v <= MAX_RADIANCE);
+    if let Some(m) = scene.materials.iter().find(|m| too_bright(m.emission.max_element())) {
         // A lamp's material is named as its light ("area light 'Key'").
         let what = if m.lamp { m.name.clone() } else { format!("material '{}'", m.name) };
         return Err(format!("{what} emits {:e} W·sr⁻¹·m⁻²; Glint renders emitters up to {MAX_RADIANCE:e}", m.emission.max_element()));
     }
-    if let Some(l) = scene.punctual.iter().find(|l| too_bright(l.intensity)) {
+    if let Some(l) = scene.punctual.iter().find(|l| too_bright(l.intensity.max_element())) {
         let unit = if l.kind == PunctualKind::Sun { "W·m⁻²" } else { "W·sr⁻¹" };
         return Err(format!("light '{}' has an intensity of {:e} {unit}; Glint renders lights up to {MAX_RADIANCE:e}", l.name, l.intensity.max_element()));
     }
-    if too_bright(scene.background) {
+    if too_bright(scene.background.max_element()) {
         return Err(format!("the World's colour is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", scene.background.max_element()));
     }
-    if let Some(env) = scene.environment.as_ref().filter(|e| !(e.brightest <= MAX_RADIANCE)) {
+    if let Some(env) = scene.environment.as_ref().filter(|e| too_bright(e.brightest)) {
         return Err(format!("the environment image's brightest texel × strength is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", env.brightest));
     }
     Ok(())

@@ -131,29 +131,27 @@ fn emitters_too_bright_to_sum_are_refused() {
     cornell["extensionsUsed"] = serde_json::json!(["KHR_materials_emissive_strength"]);
     let bright = dir.join("bright.gltf");
     std::fs::write(&bright, serde_json::to_string(&cornell).unwrap()).unwrap();
-    let o = glint(&["render", bright.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
-    let err = stderr(&o);
-    assert!(!o.status.success() && err.lines().count() == 1, "{err}");
-    assert!(err.contains(bright.to_str().unwrap()) && err.contains("material 'light' emits 3e38") && err.contains("up to 1e20"), "{err}");
-    let mut lit: serde_json::Value = serde_json::from_str(glint::DEFAULT_SCENE).unwrap();
-    lit["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
-    lit["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [{"name": "Bulb", "type": "point", "intensity": 1e30}]}});
-    lit["nodes"].as_array_mut().unwrap().push(serde_json::json!({"translation": [0, 1, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}}));
-    let bulb = lit["nodes"].as_array().unwrap().len() - 1;
-    lit["scenes"][0]["nodes"].as_array_mut().unwrap().push(serde_json::json!(bulb));
-    let lit_path = dir.join("bulb.gltf");
-    std::fs::write(&lit_path, serde_json::to_string(&lit).unwrap()).unwrap();
-    let o = glint(&["render", lit_path.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
-    let err = stderr(&o);
-    assert!(!o.status.success() && err.lines().count() == 1 && err.contains("light 'Bulb' has an intensity of 1e30 W·sr⁻¹"), "{err}");
-    let o = glint(&["render", "--background", "3.4e38", "0", "0", "-o", exr.to_str().unwrap()]);
-    let err = stderr(&o);
-    assert!(!o.status.success() && err.lines().count() == 1 && err.contains("the World's colour is 3.4e38"), "{err}");
+    let lit = common::default_scene_with_lights(
+        serde_json::json!([{"name": "Bulb", "type": "point", "intensity": 1e30}]),
+        vec![serde_json::json!({"translation": [0, 1, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}})],
+    );
+    let bulb = dir.join("bulb.gltf");
+    std::fs::write(&bulb, serde_json::to_string(&lit).unwrap()).unwrap();
     let sky = dir.join("sky.png");
     image::RgbImage::from_pixel(4, 2, image::Rgb([255, 255, 255])).save(&sky).unwrap();
-    let o = glint(&["render", "--environment", sky.to_str().unwrap(), "--environment-strength", "1e25", "-o", exr.to_str().unwrap()]);
-    let err = stderr(&o);
-    assert!(!o.status.success() && err.lines().count() == 1 && err.contains("brightest texel × strength is 1e25"), "{err}");
+    let (bright, bulb, sky) = (bright.to_str().unwrap(), bulb.to_str().unwrap(), sky.to_str().unwrap());
+    for (args, expect) in [
+        (&[bright][..], "material 'light' emits 3e38 W·sr⁻¹·m⁻²; Glint renders emitters up to 1e20"),
+        (&[bulb], "light 'Bulb' has an intensity of 1e30 W·sr⁻¹"),
+        (&["--background", "3.4e38", "0", "0"], "the World's colour is 3.4e38"),
+        (&["--environment", sky, "--environment-strength", "1e25"], "brightest texel × strength is 1e25"),
+    ] {
+        let o = glint(&[&["render", "-o", exr.to_str().unwrap()][..], args].concat());
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.lines().count() == 1 && err.contains(expect), "{args:?}: {err}");
+        // A scene file's error names it.
+        assert!(!args[0].ends_with(".gltf") || err.contains(args[0]), "{err}");
+    }
     // At the bound itself it renders, every pixel finite.
     let o = glint(&["render", "--background", "1e20", "0", "0", "--spp", "4", "--width", "8", "--height", "8", "-o", exr.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -8,9 +8,10 @@
 
 mod common;
 
-use common::shared_dir;
+use common::{default_scene_with_lights, shared_dir};
 use glint::integrator::Context;
 use glint::job::{prepare, JobOptions, SceneExtras};
+use glint::request::RenderRequest;
 use glint::loader::{inspect_file, load_file, LoadOptions};
 use glint::render::{render_pass, Film};
 use std::sync::atomic::AtomicBool;
@@ -179,6 +180,17 @@ fn pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
     }
 }
 
+/// The mutation tests' numbers, from a fixed seed: `pick(n)` draws below n.
+fn picker() -> impl FnMut(usize) -> usize {
+    let mut rng = glint::rng::Rng::new(2026, 12);
+    move |n| ((rng.next_u32() as u64 * n as u64) >> 32) as usize
+}
+
+/// How many files a mutation test makes: GLINT_MUTATIONS, else `default`.
+fn mutation_count(default: usize) -> usize {
+    std::env::var("GLINT_MUTATIONS").ok().and_then(|n| n.parse().ok()).unwrap_or(default)
+}
+
 /// Replace one value under `root` (a JSON pointer; "" for all) of `doc`:
 /// mostly a number by a hostile number of its kind or a scaled one, now and
 /// then anything anywhere by a value of the wrong type. `pick(n)` draws
@@ -199,20 +211,50 @@ fn mutate(doc: &mut serde_json::Value, root: &str, hostile: &[serde_json::Value]
     what
 }
 
-/// Inspect, load and render a file in a worker thread: the outcome, or the
+/// Inspect, load and render a file 12² at `samples` samples, with a render
+/// request beside it where given, in a worker thread: the outcome, or the
 /// panic's message.
-fn render_guarded(path: &Path, camera: Option<&str>) -> Result<Result<(), String>, String> {
+fn render_guarded(path: &Path, camera: Option<&str>, request: Option<&Path>, samples: u32) -> Result<Result<(), String>, String> {
     let camera = camera.map(str::to_string);
+    let request = request.map(Path::to_path_buf);
     guarded(path, move |p| -> Result<(), String> {
         inspect_file(p).map_err(|e| e.to_string())?;
-        let options = JobOptions { camera, width: Some(12), height: Some(12), samples: Some(1), ..JobOptions::default() };
-        let job = prepare(Some(p), &options, SceneExtras::default())?;
+        let request = match &request {
+            Some(file) => RenderRequest::read(file).map_err(|e| format!("{}: {e}", file.display()))?,
+            None => RenderRequest::default(),
+        };
+        let options = JobOptions { camera, width: Some(12), height: Some(12), samples: Some(samples), ..JobOptions::default() }.or(&JobOptions::from(&request));
+        let job = prepare(Some(p), &options, (&request).into())?;
         let (ctx, _) = Context::new(&job.scene);
         let mut film = Film::new(12, 12);
-        render_pass(&ctx, &job.settings, &mut film, 0..1, &AtomicBool::new(false), &|_| {}).map_err(|e| e.to_string())?;
-        assert!(film.mean().iter().all(|p| p.is_finite()), "a pixel is not finite");
+        let stats = render_pass(&ctx, &job.settings, &mut film, 0..samples, &AtomicBool::new(false), &|_| {}).map_err(|e| e.to_string())?;
+        assert!(film.mean().iter().all(|p| p.is_finite()), "a pixel is not finite ({} samples dropped)", stats.discarded);
         Ok(())
     })
+}
+
+/// What the mutation tests count of `render_guarded`'s outcomes: renders,
+/// clean refusals (one line naming one of the files), and failures.
+#[derive(Default)]
+struct Tally {
+    rendered: usize,
+    refused: usize,
+    failures: Vec<String>,
+}
+
+impl Tally {
+    fn add(&mut self, outcome: Result<Result<(), String>, String>, files: &[&Path], what: &str) {
+        match outcome {
+            Ok(Ok(())) => self.rendered += 1,
+            Ok(Err(e)) => {
+                self.refused += 1;
+                if e.contains('\n') || !files.iter().any(|f| e.contains(&f.display().to_string())) {
+                    self.failures.push(format!("{what}: not a one-line error naming the file: {e}"));
+                }
+            }
+            Err(panic) => self.failures.push(format!("{what}: panicked: {panic}")),
+        }
+    }
 }
 
 /// Files that are plausible glTF but wrong in one to three places: the
@@ -238,10 +280,9 @@ fn mutated_sample_models_load_or_fail_cleanly() {
     let out_dir = std::env::temp_dir().join(format!("glint-mutations-{}", std::process::id()));
     std::fs::create_dir_all(&out_dir).unwrap();
     let hostile = hostile_values();
-    let mut rng = glint::rng::Rng::new(2026, 12);
-    let mut pick = |n: usize| (rng.next_u32() as u64 * n as u64 >> 32) as usize;
-    let (mut rendered, mut refused, mut failures) = (0, 0, Vec::new());
-    let count: usize = std::env::var("GLINT_MUTATIONS").ok().and_then(|n| n.parse().ok()).unwrap_or(600);
+    let mut pick = picker();
+    let mut tally = Tally::default();
+    let count = mutation_count(600);
     for i in 0..count {
         let (name, text) = &sources[pick(sources.len())];
         let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
@@ -253,21 +294,12 @@ fn mutated_sample_models_load_or_fail_cleanly() {
         std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
         // The file's own camera where it has one, every other time.
         let camera = if i % 2 == 1 && json.get("cameras").is_some() { None } else { Some("auto") };
-        match render_guarded(&path, camera) {
-            Ok(Ok(())) => rendered += 1,
-            Ok(Err(e)) => {
-                refused += 1;
-                if e.contains('\n') || !e.contains(&path.display().to_string()) {
-                    failures.push(format!("{name} {what:?}: not a one-line error naming the file: {e}"));
-                }
-            }
-            Err(panic) => failures.push(format!("{name} {what:?}: panicked: {panic}")),
-        }
+        tally.add(render_guarded(&path, camera, None, 1), &[&path], &format!("{name} {what:?}"));
         std::fs::remove_file(&path).unwrap();
     }
     std::fs::remove_dir(&out_dir).unwrap();
-    eprintln!("mutated sample models: {count} files, {rendered} rendered, {refused} clean errors");
-    assert!(failures.is_empty(), "{} of {count} mutated files:\n{}", failures.len(), failures.join("\n"));
+    eprintln!("mutated sample models: {count} files, {} rendered, {} clean errors", tally.rendered, tally.refused);
+    assert!(tally.failures.is_empty(), "{} of {count} mutated files:\n{}", tally.failures.len(), tally.failures.join("\n"));
 }
 
 /// The default Cornell box with a point, a spot and a sun
@@ -276,25 +308,17 @@ fn mutated_sample_models_load_or_fail_cleanly() {
 /// lamps, the three lights' sizes, an environment image or a World colour.
 fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_json::Value) {
     use serde_json::json;
-    let mut scene: serde_json::Value = serde_json::from_str(glint::DEFAULT_SCENE).unwrap();
-    scene["extensionsUsed"] = json!(["KHR_lights_punctual"]);
-    scene["extensions"] = json!({"KHR_lights_punctual": {"lights": [
-        {"name": "Point", "type": "point", "color": [1, 0.9, 0.8], "intensity": 20},
-        {"name": "Spot", "type": "spot", "color": [1, 1, 1], "intensity": 30, "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.6}},
-        {"name": "Sun", "type": "directional", "color": [1, 1, 1], "intensity": 2}]}});
-    let first = scene["nodes"].as_array().unwrap().len();
-    for (i, node) in [
-        json!({"name": "PointNode", "translation": [0.2, 1.5, 0.3], "extensions": {"KHR_lights_punctual": {"light": 0}}}),
-        json!({"name": "SpotNode", "translation": [-0.3, 1.6, 0.2], "rotation": [-std::f32::consts::FRAC_1_SQRT_2, 0, 0, std::f32::consts::FRAC_1_SQRT_2], "extensions": {"KHR_lights_punctual": {"light": 1}}}),
-        json!({"name": "SunNode", "rotation": [-0.5, 0.2, 0.1, 0.84], "extensions": {"KHR_lights_punctual": {"light": 2}}}),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        scene["nodes"].as_array_mut().unwrap().push(node);
-        let root = scene["scene"].as_u64().unwrap_or(0) as usize;
-        scene["scenes"][root]["nodes"].as_array_mut().unwrap().push(json!(first + i));
-    }
+    let scene = default_scene_with_lights(
+        json!([
+            {"name": "Point", "type": "point", "color": [1, 0.9, 0.8], "intensity": 20},
+            {"name": "Spot", "type": "spot", "color": [1, 1, 1], "intensity": 30, "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.6}},
+            {"name": "Sun", "type": "directional", "color": [1, 1, 1], "intensity": 2}]),
+        vec![
+            json!({"name": "PointNode", "translation": [0.2, 1.5, 0.3], "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+            json!({"name": "SpotNode", "translation": [-0.3, 1.6, 0.2], "rotation": [-std::f32::consts::FRAC_1_SQRT_2, 0, 0, std::f32::consts::FRAC_1_SQRT_2], "extensions": {"KHR_lights_punctual": {"light": 1}}}),
+            json!({"name": "SunNode", "rotation": [-0.5, 0.2, 0.1, 0.84], "extensions": {"KHR_lights_punctual": {"light": 2}}}),
+        ],
+    );
     // Column-major, turned by `turn` about y and moved to `at`.
     let matrix = |at: [f32; 3], turn: f32| json!([turn.cos(), 0, -turn.sin(), 0, 0, 1, 0, 0, turn.sin(), 0, turn.cos(), 0, at[0], at[1], at[2], 1]);
     let mut request = json!({
@@ -330,10 +354,9 @@ fn mutated_render_requests_render_or_fail_cleanly() {
     let sky = dir.join("sky.png");
     image::RgbImage::from_fn(8, 4, |x, y| image::Rgb([(x * 30) as u8, (y * 60) as u8, 200])).save(&sky).unwrap();
     let hostile = hostile_values();
-    let mut rng = glint::rng::Rng::new(2026, 12);
-    let mut pick = |n: usize| (rng.next_u32() as u64 * n as u64 >> 32) as usize;
-    let (mut rendered, mut refused, mut failures) = (0, 0, Vec::new());
-    let count: usize = std::env::var("GLINT_MUTATIONS").ok().and_then(|n| n.parse().ok()).unwrap_or(2000);
+    let mut pick = picker();
+    let mut tally = Tally::default();
+    let count = mutation_count(2000);
     for i in 0..count {
         let (mut scene, mut request) = lit_box_and_request((i % 2 == 1).then_some(sky.as_path()));
         let mut what = Vec::new();
@@ -345,32 +368,13 @@ fn mutated_render_requests_render_or_fail_cleanly() {
         let (scene_path, request_path) = (dir.join(format!("scene-{i}.gltf")), dir.join(format!("request-{i}.json")));
         std::fs::write(&scene_path, serde_json::to_string(&scene).unwrap()).unwrap();
         std::fs::write(&request_path, serde_json::to_string(&request).unwrap()).unwrap();
-        let request_file = request_path.clone();
-        let outcome = guarded(&scene_path, move |p| -> Result<(), String> {
-            let request = glint::request::RenderRequest::read(&request_file).map_err(|e| format!("{}: {e}", request_file.display()))?;
-            let options = JobOptions { width: Some(12), height: Some(12), samples: Some(2), ..JobOptions::default() }.or(&JobOptions::from(&request));
-            let job = prepare(Some(p), &options, (&request).into())?;
-            let (ctx, _) = Context::new(&job.scene);
-            let mut film = Film::new(12, 12);
-            let stats = render_pass(&ctx, &job.settings, &mut film, 0..2, &AtomicBool::new(false), &|_| {}).map_err(|e| e.to_string())?;
-            assert!(film.mean().iter().all(|p| p.is_finite()), "a pixel is not finite ({} samples dropped)", stats.discarded);
-            Ok(())
-        });
-        match outcome {
-            Ok(Ok(())) => rendered += 1,
-            Ok(Err(e)) => {
-                refused += 1;
-                let names_a_file = [&scene_path, &request_path].iter().any(|f| e.contains(&f.display().to_string()));
-                if e.contains('\n') || !names_a_file {
-                    failures.push(format!("{what:?}: not a one-line error naming the file: {e}"));
-                }
-            }
-            Err(panic) => failures.push(format!("{what:?}: panicked: {panic}")),
-        }
+        // Two samples: the pixels' sums, where finite samples can overflow.
+        let outcome = render_guarded(&scene_path, None, Some(&request_path), 2);
+        tally.add(outcome, &[&scene_path, &request_path], &format!("{what:?}"));
         std::fs::remove_file(&scene_path).unwrap();
         std::fs::remove_file(&request_path).unwrap();
     }
     std::fs::remove_dir_all(&dir).unwrap();
-    eprintln!("mutated render requests: {count} pairs, {rendered} rendered, {refused} clean errors");
-    assert!(failures.is_empty(), "{} of {count} mutated requests:\n{}", failures.len(), failures.join("\n"));
+    eprintln!("mutated render requests: {count} pairs, {} rendered, {} clean errors", tally.rendered, tally.refused);
+    assert!(tally.failures.is_empty(), "{} of {count} mutated requests:\n{}", tally.failures.len(), tally.failures.join("\n"));
 }

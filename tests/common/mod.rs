@@ -208,3 +208,19 @@ pub fn lamp_hall() -> Scene {
     }
     scene
 }
+
+/// The embedded default scene (the Cornell box) as JSON, with `lights`
+/// (KHR_lights_punctual's list) and `nodes` that hold them added to its
+/// scene's root.
+pub fn default_scene_with_lights(lights: serde_json::Value, nodes: Vec<serde_json::Value>) -> serde_json::Value {
+    let mut scene: serde_json::Value = serde_json::from_str(glint::DEFAULT_SCENE).unwrap();
+    scene["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+    scene["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": lights}});
+    let root = scene["scene"].as_u64().unwrap_or(0) as usize;
+    for node in nodes {
+        let index = scene["nodes"].as_array().unwrap().len();
+        scene["nodes"].as_array_mut().unwrap().push(node);
+        scene["scenes"][root]["nodes"].as_array_mut().unwrap().push(serde_json::json!(index));
+    }
+    scene
+}
