@@ -1,4 +1,5 @@
-//! A glTF perspective camera: it looks down its node's −Z with +Y up.
+//! A glTF camera, perspective or orthographic: it looks down its node's −Z
+//! with +Y up.
 
 use glam::{Mat4, Vec2};
 use crate::Vec3;
@@ -10,18 +11,50 @@ pub struct Camera {
     pub right: Vec3,
     pub up: Vec3,
     pub forward: Vec3,
-    /// Vertical field of view in radians.
-    pub yfov: f32,
+    pub projection: Projection,
     /// The file's aspect ratio (width / height), used only to pick a default
-    /// image height; the image's own aspect ratio shapes the frustum.
+    /// image height; the image's own aspect ratio shapes the view.
     pub aspect_ratio: Option<f32>,
 }
 
+/// How the image's points become rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Rays from the camera's position; `yfov` is the vertical field of
+    /// view in radians.
+    Perspective { yfov: f32 },
+    /// Parallel rays along the camera's forward axis, from the plane
+    /// `near` metres in front of it (glTF's `znear`, Blender's Clip Start,
+    /// where Cycles starts them too); `half_height` is half the view's
+    /// height in metres (glTF's `ymag`; Blender's Orthographic Scale is
+    /// the whole view's larger side).
+    Orthographic { half_height: f32, near: f32 },
+}
+
+/// The largest orthographic half-height and near distance, in metres: a
+/// view's corner, at most 32,768 image aspects wide, stays a finite float.
+const MAX_ORTHOGRAPHIC: f32 = 1e15;
+
 impl Camera {
-    /// From the camera node's world transform (scale is removed).
+    /// A perspective camera from its node's world transform (scale is
+    /// removed).
     pub fn from_world(name: String, world: &Mat4, yfov: f32, aspect_ratio: Option<f32>) -> Result<Self, String> {
-        if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
-            return Err(format!("camera '{name}' has yfov {yfov}, which must be in (0, π)"));
+        Self::with_projection(name, world, Projection::Perspective { yfov }, aspect_ratio)
+    }
+
+    /// A camera of either projection from its node's world transform.
+    pub fn with_projection(name: String, world: &Mat4, projection: Projection, aspect_ratio: Option<f32>) -> Result<Self, String> {
+        match projection {
+            Projection::Perspective { yfov } if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) => {
+                return Err(format!("camera '{name}' has yfov {yfov}, which must be in (0, π)"));
+            }
+            Projection::Orthographic { half_height, .. } if !(half_height > 0.0 && half_height <= MAX_ORTHOGRAPHIC) => {
+                return Err(format!("camera '{name}' has ymag {half_height}, which must be in (0, {MAX_ORTHOGRAPHIC:e}] m"));
+            }
+            Projection::Orthographic { near, .. } if !(near >= 0.0 && near <= MAX_ORTHOGRAPHIC) => {
+                return Err(format!("camera '{name}' has znear {near}, which must be in [0, {MAX_ORTHOGRAPHIC:e}] m"));
+            }
+            _ => {}
         }
         let position = Vec3::from_vec4(world.w_axis);
         let forward = (-Vec3::from_vec4(world.z_axis)).normalize_or_zero();
@@ -32,7 +65,7 @@ impl Camera {
             return Err(format!("camera '{name}' has a degenerate or non-finite transform"));
         }
         let aspect_ratio = aspect_ratio.filter(|a| a.is_finite() && *a > 0.0);
-        Ok(Camera { name, position, right, up, forward, yfov, aspect_ratio })
+        Ok(Camera { name, position, right, up, forward, projection, aspect_ratio })
     }
 
     /// `--camera auto`: a camera that frames a bounding box, for scenes
@@ -64,17 +97,26 @@ impl Camera {
     /// The camera for an image of this size: what every primary ray shares,
     /// computed once a pass (a tangent per ray had been 1% of a render).
     pub fn lens(&self, width: u32, height: u32) -> Lens<'_> {
-        let (tan_half, aspect) = ((0.5 * self.yfov).tan(), width as f32 / height as f32);
-        // A pixel's area on the image plane at distance 1.
-        let pixel_area = (2.0 * tan_half * aspect / width as f32) * (2.0 * tan_half / height as f32);
-        Lens { camera: self, tan_half, aspect, width: width as f32, height: height as f32, pixel_area, image_width: width }
+        let (half_height, parallel_from) = match self.projection {
+            Projection::Perspective { yfov } => ((0.5 * yfov).tan(), None),
+            Projection::Orthographic { half_height, near } => (half_height, Some(near)),
+        };
+        let aspect = width as f32 / height as f32;
+        // A pixel's area on the image plane (at distance 1 for a
+        // perspective camera).
+        let pixel_area = (2.0 * half_height * aspect / width as f32) * (2.0 * half_height / height as f32);
+        Lens { camera: self, half_height, parallel_from, aspect, width: width as f32, height: height as f32, pixel_area, image_width: width }
     }
 }
 
 /// A camera and an image size (`Camera::lens`).
 pub struct Lens<'a> {
     camera: &'a Camera,
-    tan_half: f32,
+    /// Half the image plane's height: tan(yfov/2) at distance 1 for a
+    /// perspective camera, metres for an orthographic one.
+    half_height: f32,
+    /// An orthographic camera's near distance, where its rays start.
+    parallel_from: Option<f32>,
     aspect: f32,
     width: f32,
     height: f32,
@@ -97,12 +139,23 @@ impl Lens<'_> {
     /// `Camera::ray`.
     pub fn ray(&self, pixel: Vec2) -> (Vec3, Vec3) {
         let c = self.camera;
-        let sx = (2.0 * pixel.x / self.width - 1.0) * self.tan_half * self.aspect;
-        let sy = (1.0 - 2.0 * pixel.y / self.height) * self.tan_half;
-        let dir = (c.forward + c.right * sx + c.up * sy).normalize();
-        (c.position, dir)
+        let sx = (2.0 * pixel.x / self.width - 1.0) * self.half_height * self.aspect;
+        let sy = (1.0 - 2.0 * pixel.y / self.height) * self.half_height;
+        match self.parallel_from {
+            None => (c.position, (c.forward + c.right * sx + c.up * sy).normalize()),
+            Some(near) => (c.position + c.forward * near + c.right * sx + c.up * sy, c.forward),
+        }
     }
 
+    /// Whether every ray starts at one point, the camera's position: a
+    /// perspective camera. Only such a camera can be joined to a point
+    /// (`project`); an orthographic camera's rays share a direction
+    /// instead, which a light subpath's vertex meets with probability 0.
+    pub fn pinhole(&self) -> bool {
+        self.parallel_from.is_none()
+    }
+
+    /// Where a perspective camera's rays start.
     pub fn position(&self) -> Vec3 {
         self.camera.position
     }
@@ -111,20 +164,22 @@ impl Lens<'_> {
     /// uniformly jittered samples draw the direction ω of a camera ray in
     /// it, A_p the pixel's area on the image plane at distance 1 (dω =
     /// cos³θ dA there). A pixel's value is ∫ W L dω over its directions.
+    /// 0 for an orthographic camera, which no other strategy reaches
+    /// (`pinhole`): its rays' one direction is a delta.
     #[inline]
     pub fn importance(&self, dir: Vec3) -> f32 {
         let cos = dir.dot(self.camera.forward);
-        if cos > 0.0 { 1.0 / (self.pixel_area * cos * cos * cos) } else { 0.0 }
+        if cos > 0.0 && self.pinhole() { 1.0 / (self.pixel_area * cos * cos * cos) } else { 0.0 }
     }
 
-    /// Where on the image (in pixels, as `ray` takes them) the point at
-    /// offset `v` from the camera appears, wherever that is; None behind
-    /// the camera or level with it.
+    /// Where on a perspective camera's image (in pixels, as `ray` takes
+    /// them) the point at offset `v` from the camera appears, wherever that
+    /// is; None behind the camera or level with it.
     #[inline]
     pub fn image_point(&self, v: Vec3) -> Option<Vec2> {
         let c = self.camera;
         let z = v.dot(c.forward);
-        (z > 0.0).then(|| Vec2::new((v.dot(c.right) / (z * self.tan_half * self.aspect) + 1.0) * 0.5 * self.width, (1.0 - v.dot(c.up) / (z * self.tan_half)) * 0.5 * self.height))
+        (z > 0.0).then(|| Vec2::new((v.dot(c.right) / (z * self.half_height * self.aspect) + 1.0) * 0.5 * self.width, (1.0 - v.dot(c.up) / (z * self.half_height)) * 0.5 * self.height))
     }
 
     /// The camera's forward axis: what `image_point`'s depth is along.
@@ -135,11 +190,15 @@ impl Lens<'_> {
     /// The distance from the camera, per unit of depth along `forward`,
     /// of the frustum's farthest corner.
     pub fn corner_stretch(&self) -> f32 {
-        (1.0 + self.tan_half * self.tan_half * (1.0 + self.aspect * self.aspect)).sqrt()
+        (1.0 + self.half_height * self.half_height * (1.0 + self.aspect * self.aspect)).sqrt()
     }
 
-    /// The pixel a point appears in, if any: the inverse of `ray`.
+    /// The pixel a point appears in, if any: the inverse of `ray`. None
+    /// for an orthographic camera (`pinhole`).
     pub fn project(&self, p: Vec3) -> Option<Seen> {
+        if !self.pinhole() {
+            return None;
+        }
         let c = self.camera;
         let v = p - c.position;
         let distance = v.length();
@@ -215,5 +274,30 @@ mod tests {
         assert!(Camera::from_world("c".into(), &Mat4::IDENTITY, 0.0, None).is_err());
         assert!(Camera::from_world("c".into(), &Mat4::IDENTITY, f32::NAN, None).is_err());
         assert!(Camera::from_world("c".into(), &Mat4::ZERO, 1.0, None).is_err());
+        let ortho = |half_height, near| Camera::with_projection("c".into(), &Mat4::IDENTITY, Projection::Orthographic { half_height, near }, None);
+        assert!(ortho(1.0, 0.0).is_ok() && ortho(MAX_ORTHOGRAPHIC, MAX_ORTHOGRAPHIC).is_ok());
+        for (half_height, near) in [(0.0, 0.1), (-1.0, 0.1), (f32::NAN, 0.1), (f32::INFINITY, 0.1), (2e15, 0.1), (1.0, -0.1), (1.0, f32::NAN), (1.0, 2e15)] {
+            assert!(ortho(half_height, near).is_err(), "{half_height} {near}");
+        }
+    }
+
+    /// An orthographic camera's rays all look down −Z from the near plane,
+    /// over a view `2·half_height` tall and as wide as the image's aspect
+    /// makes it; nothing projects onto it, and its importance is 0.
+    #[test]
+    fn orthographic_rays_are_parallel_from_the_near_plane() {
+        let world = Mat4::from_translation(glam::Vec3::new(1.0, 2.0, 3.0));
+        let cam = Camera::with_projection("o".into(), &world, Projection::Orthographic { half_height: 1.5, near: 0.25 }, None).unwrap();
+        let lens = cam.lens(200, 100);
+        assert!(!lens.pinhole());
+        for (pixel, expected) in [((0.0, 0.0), (-3.0, 1.5)), ((200.0, 100.0), (3.0, -1.5)), ((100.0, 50.0), (0.0, 0.0)), ((150.0, 25.0), (1.5, 0.75))] {
+            let (o, d) = lens.ray(Vec2::new(pixel.0, pixel.1));
+            assert_eq!(d, Vec3::NEG_Z);
+            let want = Vec3::new(1.0 + expected.0, 2.0 + expected.1, 3.0 - 0.25);
+            assert!((o - want).length() < 1e-6, "{pixel:?}: {o} against {want}");
+        }
+        assert!(lens.project(Vec3::new(1.0, 2.0, 0.0)).is_none());
+        assert_eq!(lens.importance(Vec3::NEG_Z), 0.0);
+        assert!(cam.lens(64, 64).pinhole() == false && Camera::from_world("p".into(), &world, 1.0, None).unwrap().lens(64, 64).pinhole());
     }
 }

@@ -143,7 +143,8 @@ impl<'a> CameraHits<'a> {
 
     /// Binned unless that makes more than `max_tests` tests per pixel.
     fn within(accel: &Accel, triangles: &'a [Triangle], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64) -> Option<Self> {
-        if width > u16::MAX as u32 || height > u16::MAX as u32 {
+        // An orthographic camera's rays share a direction, not an origin.
+        if width > u16::MAX as u32 || height > u16::MAX as u32 || !lens.pinhole() {
             return None;
         }
         let origin = lens.position();
@@ -344,7 +345,7 @@ fn clamp_rect(lo: Vec2, hi: Vec2, width: u32, height: u32) -> Option<[u32; 4]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Camera;
+    use crate::camera::{Camera, Projection};
     use crate::rng::Rng;
 
     fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
@@ -354,7 +355,7 @@ mod tests {
     fn camera(eye: Vec3, target: Vec3) -> Camera {
         let forward = (target - eye).normalize();
         let right = forward.cross(Vec3::Y).normalize();
-        Camera { name: "test".into(), position: eye, right, up: right.cross(forward), forward, yfov: 0.9, aspect_ratio: None }
+        Camera { name: "test".into(), position: eye, right, up: right.cross(forward), forward, projection: Projection::Perspective { yfov: 0.9 }, aspect_ratio: None }
     }
 
     /// A closed UV sphere whose neighbours share their corners bit for bit.

@@ -85,7 +85,7 @@ struct RenderOptions {
     sampler: Option<String>,
     /// Camera to render, by node or camera name, or `auto`: one that frames
     /// the scene (lit by a white World when it has no lights) [default: the
-    /// first perspective camera].
+    /// first camera, depth first].
     #[arg(long)]
     camera: Option<String>,
     /// Which of the file's scenes [default: the file's default scene].

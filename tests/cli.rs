@@ -185,7 +185,7 @@ fn inspect_reports_a_sample_model() {
     let o = Command::new(env!("CARGO_BIN_EXE_glint")).args(["inspect", f.to_str().unwrap()]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("12 triangles") && out.contains("no perspective camera"), "{out}");
+    assert!(out.contains("12 triangles") && out.contains("the scene has no camera"), "{out}");
 }
 
 /// Every render starts with one line saying what the scene uses and which

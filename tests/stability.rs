@@ -6,6 +6,7 @@ mod common;
 
 use common::*;
 use glint::Vec3;
+use glint::camera::Projection;
 use glint::material::Material;
 use glint::render::RenderSettings;
 use glint::scene::{Scene, Triangle};
@@ -72,7 +73,7 @@ fn roughness_sweep_metal_and_dielectric_mis_against_the_seed_rule() {
     for metallic in [1.0f32, 0.0] {
         for roughness in [0.0f32, 1e-4, 1e-3, 0.01, 0.05, 1.0] {
             let mut scene = glossy_floor_and_small_light(roughness, metallic);
-            scene.camera.yfov = 0.02;
+            scene.camera.projection = Projection::Perspective { yfov: 0.02 };
             let reference = render(&scene, &estimator(true, settings(w, h, 4096, 3, 1)), 2).0;
             let mut line = format!("metallic {metallic} roughness {roughness}:");
             let mut errors = vec![];

@@ -10,7 +10,7 @@ mod glb;
 mod images;
 mod tangents;
 
-use crate::camera::Camera;
+use crate::camera::{Camera, Projection};
 use crate::material::{AlphaMode, Material, MaterialTextures};
 use crate::punctual::{PunctualKind, PunctualLight};
 use crate::scene::{Scene, Triangle, VertexAttributes};
@@ -579,16 +579,30 @@ impl<'a> Builder<'a> {
             None => self
                 .cameras
                 .iter()
-                .find(|c| root.cameras.get(c.camera).is_some_and(|cam| cam.perspective.is_some()))
-                .ok_or("the scene has no perspective camera (add one in Blender, or render with --camera auto)")?,
+                .find(|c| root.cameras.get(c.camera).is_some_and(|cam| cam.perspective.is_some() || cam.orthographic.is_some()))
+                .ok_or("the scene has no camera (add one in Blender, or render with --camera auto)")?,
         };
         let cam = root.cameras.get(candidate.camera).ok_or_else(|| format!("camera {} does not exist", candidate.camera))?;
         let name = candidate.node_name.clone().or_else(|| cam.name.clone()).unwrap_or_else(|| format!("camera {}", candidate.camera));
-        let p = cam
-            .perspective
-            .as_ref()
-            .ok_or_else(|| format!("camera '{name}' is not a perspective camera (orthographic cameras are not supported)"))?;
-        Camera::from_world(name, &candidate.world, p.yfov, p.aspect_ratio)
+        // A camera's type names the one of its two objects it uses; a file
+        // whose type is missing or unknown still has at most one of them.
+        let orthographic = match cam.type_ {
+            Checked::Valid(gltf::json::camera::Type::Orthographic) => true,
+            Checked::Valid(gltf::json::camera::Type::Perspective) => false,
+            _ => cam.perspective.is_none(),
+        };
+        if orthographic {
+            let o = cam.orthographic.as_ref().ok_or_else(|| format!("camera '{name}' is orthographic but has no orthographic object"))?;
+            // glTF's xmag and ymag are half the view's width and height;
+            // the image's aspect ratio shapes the view, as for a perspective
+            // camera, so xmag picks only a default image height.
+            let aspect = (o.xmag / o.ymag).abs();
+            let projection = Projection::Orthographic { half_height: o.ymag, near: o.znear };
+            Camera::with_projection(name, &candidate.world, projection, Some(aspect))
+        } else {
+            let p = cam.perspective.as_ref().ok_or_else(|| format!("camera '{name}' is perspective but has no perspective object"))?;
+            Camera::from_world(name, &candidate.world, p.yfov, p.aspect_ratio)
+        }
     }
 
     fn warnings(&self) -> Vec<String> {

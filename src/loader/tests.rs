@@ -233,10 +233,10 @@ fn punctual_lights_load_with_their_transform_and_bad_ones_are_counted() {
 }
 
 #[test]
-fn cameras_first_perspective_by_name_and_errors() {
+fn cameras_first_of_either_kind_by_name_and_errors() {
     let mut d = base_doc();
     d["cameras"] = json!([
-        {"name": "Ortho", "type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 10}},
+        {"name": "Ortho", "type": "orthographic", "orthographic": {"xmag": 2, "ymag": 1, "znear": 0.1, "zfar": 10}},
         {"name": "Persp", "type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}}
     ]);
     d["nodes"] = json!([
@@ -245,16 +245,30 @@ fn cameras_first_perspective_by_name_and_errors() {
         {"name": "PerspNode", "camera": 1, "translation": [0, 0, 2]}
     ]);
     d["scenes"][0]["nodes"] = json!([0, 1]);
+    // Depth first, the orthographic camera comes first.
     let s = load(&d).unwrap();
-    assert_eq!(s.camera.name, "PerspNode");
-    assert_eq!(s.camera.yfov, 0.5);
-    let by_name = |n: &str| load_bytes(d.to_string().as_bytes(), None, "test.gltf", &LoadOptions { camera: Some(n.into()), ..Default::default() });
-    assert_eq!(by_name("Persp").unwrap().camera.name, "PerspNode");
-    assert!(by_name("OrthoNode").unwrap_err().to_string().contains("orthographic"));
-    assert!(by_name("Nope").unwrap_err().to_string().contains("no camera named 'Nope'"));
+    assert_eq!(s.camera.name, "OrthoNode");
+    assert_eq!(s.camera.projection, Projection::Orthographic { half_height: 1.0, near: 0.1 });
+    assert_eq!(s.camera.aspect_ratio, Some(2.0));
+    let by_name = |d: &serde_json::Value, n: &str| load_bytes(d.to_string().as_bytes(), None, "test.gltf", &LoadOptions { camera: Some(n.into()), ..Default::default() });
+    let persp = by_name(&d, "Persp").unwrap().camera;
+    assert_eq!((persp.name.as_str(), persp.projection), ("PerspNode", Projection::Perspective { yfov: 0.5 }));
+    assert!(by_name(&d, "Nope").unwrap_err().to_string().contains("no camera named 'Nope'"));
+    // What the glTF schema forbids or advises against: one line, naming
+    // the camera and the value.
+    for (field, value, message) in [("ymag", json!(0), "has ymag 0"), ("ymag", json!(-1), "has ymag -1"), ("znear", json!(-0.5), "has znear -0.5"), ("ymag", json!(1e30), "which must be in (0, 1e15] m")] {
+        let mut bad = d.clone();
+        bad["cameras"][0]["orthographic"][field] = value;
+        let e = by_name(&bad, "Ortho").unwrap_err().to_string();
+        assert!(e.contains("camera 'OrthoNode'") && e.contains(message) && !e.contains('\n'), "{e}");
+    }
+    // An unknown type: the one projection object the camera has.
+    let mut fisheye = d.clone();
+    fisheye["cameras"][0]["type"] = json!("fisheye");
+    assert_eq!(load(&fisheye).unwrap().camera.projection, Projection::Orthographic { half_height: 1.0, near: 0.1 });
     d["nodes"][2].as_object_mut().unwrap().remove("camera");
     d["nodes"][0].as_object_mut().unwrap().remove("camera");
-    assert!(load_err(&d).contains("no perspective camera"));
+    assert!(load_err(&d).contains("the scene has no camera"));
 }
 
 #[test]

@@ -2,7 +2,9 @@
 camera would shift every edge and highlight, and at 64 spp it hides in the
 noise of the image comparisons. Here the corner of an emissive plane sits
 at a known fraction of a pixel, so each edge pixel's value is the share of
-the pixel the plane covers."""
+the pixel the plane covers; for a perspective camera, and for an
+orthographic one through Blender's glTF export of it (Orthographic Scale
+across the image's larger side, Clip Start)."""
 
 import bpy
 import numpy as np
@@ -14,28 +16,60 @@ PIXEL = 2 * DISTANCE * 18 / LENS / SIZE  # metres per pixel on the plane (36 mm 
 
 def test_edge_pixels_cover_what_the_plane_covers(empty_scene, tmp_path):
     """The plane starts 0.3 pixel right of the image centre and 0.7 pixel
-    above it, so the pixel right of the centre column is 70% covered, the
-    one above the centre row 30%, their corner 21%. Cycles' stratified
-    samples give these within 1e-3; Glint's independent samples are binomial
-    noise, √(p(1−p)/N) ≤ 0.004 at 2 × 8,192 spp: a 5 σ tolerance catches an
-    offset of 0.03 pixel."""
+    above it (`assert_corner_coverage`)."""
     x0, y0 = 0.3 * PIXEL, 0.7 * PIXEL
-    mesh = bpy.data.meshes.new("Plane")
-    mesh.from_pydata([(x0, y0, 0), (50, y0, 0), (50, 50, 0), (x0, 50, 0)], [], [(0, 1, 2, 3)])
-    plane = bpy.data.objects.new("Plane", mesh)
-    empty_scene.collection.objects.link(plane)
-    give_principled(plane, "Emitter", Base_Color=(0, 0, 0, 1), Emission_Color=(1, 1, 1, 1),
+    emitter = plane(empty_scene, "Plane", [(x0, y0, 0), (50, y0, 0), (50, 50, 0), (x0, 50, 0)])
+    give_principled(emitter, "Emitter", Base_Color=(0, 0, 0, 1), Emission_Color=(1, 1, 1, 1),
                     Emission_Strength=1.0, Specular_IOR_Level=0.0)
     add_camera(empty_scene, (0, 0, DISTANCE), lens=LENS)  # looking down −Z
     empty_scene.render.resolution_x = empty_scene.render.resolution_y = SIZE
-    empty_scene.view_settings.view_transform = "Standard"
+    assert_corner_coverage(empty_scene, tmp_path, SIZE // 2, SIZE // 2)
+
+
+def test_orthographic_edge_pixels_cover_what_the_plane_covers(empty_scene, tmp_path):
+    """The same corner under an orthographic camera on a 48 × 32 image:
+    Orthographic Scale 4.8 m spans the larger side, so a pixel is 0.1 m
+    on the plane at any distance. A black card 1 m in front of the camera,
+    nearer than its Clip Start (2 m), covers the whole view: Cycles starts
+    orthographic rays at Clip Start and so does Glint (glTF's znear), or
+    the image would be black."""
+    width, height, pixel = 48, 32, 0.1
+    x0, y0 = 0.3 * pixel, 0.7 * pixel
+    emitter = plane(empty_scene, "Plane", [(x0, y0, 0), (50, y0, 0), (50, 50, 0), (x0, 50, 0)])
+    give_principled(emitter, "Emitter", Base_Color=(0, 0, 0, 1), Emission_Color=(1, 1, 1, 1),
+                    Emission_Strength=1.0, Specular_IOR_Level=0.0)
+    card = plane(empty_scene, "Card", [(-50, -50, DISTANCE - 1), (50, -50, DISTANCE - 1), (50, 50, DISTANCE - 1), (-50, 50, DISTANCE - 1)])
+    give_principled(card, "Card", Base_Color=(0, 0, 0, 1), Specular_IOR_Level=0.0)
+    camera = add_camera(empty_scene, (0, 0, DISTANCE)).data
+    camera.type, camera.ortho_scale, camera.clip_start = "ORTHO", width * pixel, 2.0
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = width, height
+    assert_corner_coverage(empty_scene, tmp_path, height // 2, width // 2)
+
+
+def plane(scene, name, corners):
+    """A one-quad mesh object."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(corners, [], [(0, 1, 2, 3)])
+    obj = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def assert_corner_coverage(scene, tmp_path, row0, col0):
+    """Renders the plane whose corner is 0.3 pixel right of and 0.7 pixel
+    above the corner of pixel (`row0`, `col0`) (rows bottom first, as
+    Blender stores images: the row spans [0, 1] pixel above that corner),
+    so that pixel's right neighbour is 70% covered, the one above it 30%,
+    itself 21%. Cycles' stratified samples give these within 1e-3; Glint's
+    independent samples are binomial noise, √(p(1−p)/N) ≤ 0.004 at
+    2 × 8,192 spp: a 5 σ tolerance catches an offset of 0.03 pixel."""
+    scene.view_settings.view_transform = "Standard"
     samples, seeds = 8192, 2
-    cycles, glint = render_seeds(empty_scene, tmp_path, samples, 1, seeds)
+    cycles, glint = render_seeds(scene, tmp_path, samples, 1, seeds)
     c, g = np.mean(cycles, 0)[..., 0], np.mean(glint, 0)[..., 0]
-    # Rows are bottom first: row 16 spans [0, 1] pixel above the centre.
-    h = SIZE // 2
-    expected = {(h + 1, h): 0.7, (h + 2, h): 0.7, (h, h + 1): 0.3, (h, h + 2): 0.3, (h, h): 0.21,
-                (h - 1, h): 0.0, (h + 1, h - 1): 0.0, (h + 1, h + 1): 1.0}
+    r, k = row0, col0
+    expected = {(r + 1, k): 0.7, (r + 2, k): 0.7, (r, k + 1): 0.3, (r, k + 2): 0.3, (r, k): 0.21,
+                (r - 1, k): 0.0, (r + 1, k - 1): 0.0, (r + 1, k + 1): 1.0}
     for (row, col), p in expected.items():
         tolerance = 5 * np.sqrt(p * (1 - p) / (samples * seeds)) + 1e-4
         assert abs(c[row, col] - p) < 1e-3, ("Cycles", row, col, c[row, col], p)

@@ -4,7 +4,7 @@
 
 use glam::Mat4;
 use glint::Vec3;
-use glint::camera::Camera;
+use glint::camera::{Camera, Projection};
 use glint::integrator::Context;
 use glint::material::Material;
 use glint::render::{render_pass, Film, LightPaths, PassStats, RenderSettings};
@@ -75,7 +75,7 @@ pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     let forward = (target - eye).normalize();
     // Straight down or up: any horizontal right vector will do.
     let right = forward.cross(Vec3::Y).try_normalize().unwrap_or(Vec3::X);
-    Camera { name: "cam".into(), position: eye, right, up: right.cross(forward), forward, yfov, aspect_ratio: None }
+    Camera { name: "cam".into(), position: eye, right, up: right.cross(forward), forward, projection: Projection::Perspective { yfov }, aspect_ratio: None }
 }
 
 pub fn diffuse(name: &str, albedo: f32) -> Material {
