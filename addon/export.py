@@ -17,10 +17,12 @@ inputs (coat, sheen, subsurface, anisotropy, thin film), and World node setups o
 Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
-Through the request: resolution × percentage, the scene camera, samples,
-bounces, time limit, seed, the World colour, every area light (glTF has
-none): shape, size, world transform, colour and power, and the sizes of the
-point, spot and sun lights.
+Through the request: resolution × percentage, the scene camera and what
+glTF cannot say of it (Shift X and Y, Depth of Field), samples, bounces,
+time limit, seed, the World colour, every area light (glTF has none):
+shape, size, world transform, colour and power, and the sizes of the
+point, spot and sun lights. (The camera's Clip Start and End go through
+glTF as znear and zfar.)
 """
 
 import math
@@ -234,7 +236,57 @@ def render_request(depsgraph, job, width, height):
         request["light_paths"] = settings.light_paths == "ON"
     if scene.camera is not None:
         request["camera"] = scene.camera.name
+        lens = camera_lens(scene, scene.camera)
+        if lens:
+            request["lens"] = lens
     return request, warnings
+
+
+def camera_lens(scene, camera):
+    """A camera's Shift X and Y and its Depth of Field, as Cycles renders
+    them (its blender/camera.cpp), or None where it has neither."""
+    if camera.type != "CAMERA":
+        return None
+    data = camera.data
+    lens = {}
+    if data.shift_x or data.shift_y:
+        # Blender's shift is in units of the view's fitted side (the larger
+        # one under Auto); the request's, in fractions of each side.
+        render = scene.render
+        x = render.resolution_x * render.pixel_aspect_x
+        y = render.resolution_y * render.pixel_aspect_y
+        horizontal = x > y if data.sensor_fit == "AUTO" else data.sensor_fit == "HORIZONTAL"
+        fitted = x if horizontal else y
+        lens["shift"] = [data.shift_x * fitted / x, data.shift_y * fitted / y]
+    dof = data.dof
+    if dof.use_dof:
+        fstop = max(dof.aperture_fstop, 1e-5)
+        radius = 1.0 / (2.0 * fstop) if data.type == "ORTHO" else data.lens * 1e-3 / (2.0 * fstop)
+        lens["aperture"] = {
+            "radius": radius,
+            # Glint needs a plane of focus in front of the lens.
+            "focus_distance": max(focus_distance(camera), 1e-4),
+            "blades": dof.aperture_blades,
+            "rotation": dof.aperture_rotation,
+            "ratio": dof.aperture_ratio,
+        }
+    return lens or None
+
+
+def focus_distance(camera):
+    """Depth of Field's Focus Distance, or the distance along the camera's
+    view axis to its Focus Object (or that armature's bone)."""
+    dof = camera.data.dof
+    target = dof.focus_object
+    if target is None:
+        return dof.focus_distance
+    where = target.matrix_world
+    if target.pose is not None and dof.focus_subtarget:
+        bone = target.pose.bones.get(dof.focus_subtarget)
+        if bone is not None:
+            where = where @ bone.matrix
+    view = camera.matrix_world.to_3x3().normalized().col[2]
+    return abs(view.dot(camera.matrix_world.translation - where.translation))
 
 
 def used_materials(depsgraph):

@@ -143,7 +143,8 @@ impl<'a> CameraHits<'a> {
 
     /// Binned unless that makes more than `max_tests` tests per pixel.
     fn within(accel: &Accel, triangles: &'a [Triangle], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64) -> Option<Self> {
-        // An orthographic camera's rays share a direction, not an origin.
+        // An orthographic camera's rays share a direction, not an origin,
+        // and an aperture's rays leave from all over it.
         if width > u16::MAX as u32 || height > u16::MAX as u32 || !lens.pinhole() {
             return None;
         }
@@ -355,7 +356,7 @@ mod tests {
     fn camera(eye: Vec3, target: Vec3) -> Camera {
         let forward = (target - eye).normalize();
         let right = forward.cross(Vec3::Y).normalize();
-        Camera { name: "test".into(), position: eye, right, up: right.cross(forward), forward, projection: Projection::Perspective { yfov: 0.9 }, aspect_ratio: None }
+        Camera { name: "test".into(), position: eye, right, up: right.cross(forward), forward, projection: Projection::Perspective { yfov: 0.9 }, aspect_ratio: None, clip: [0.0, f32::INFINITY], shift: Vec2::ZERO, aperture: None }
     }
 
     /// A closed UV sphere whose neighbours share their corners bit for bit.
@@ -424,7 +425,7 @@ mod tests {
                 for _ in 0..samples {
                     for i in 0..tw * th {
                         let pixel = Vec2::new((x0 + i % tw) as f32, (y0 + i / tw) as f32) + rng.next_2d();
-                        rays.set(i as usize, lens.ray(pixel).1);
+                        rays.set(i as usize, lens.ray(pixel, Vec2::ZERO).dir);
                     }
                     hits.nearest(tw, th, &mut rays);
                     for i in 0..(tw * th) as usize {
@@ -505,7 +506,7 @@ mod tests {
                 // edges most often, and the pixels' centres.
                 for offset in [Vec2::ZERO, Vec2::splat(0.5), Vec2::new(0.5, 0.0)] {
                     for i in 0..256u32 {
-                        rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32) + offset).1);
+                        rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32) + offset, Vec2::ZERO).dir);
                     }
                     hits.nearest(16, 16, &mut rays);
                     for i in 0..256 {
@@ -541,7 +542,7 @@ mod tests {
             hits.face(x0, y0, 16, 16, &mut rays);
             // Pixel corners: the image's middle row and column among them.
             for i in 0..256u32 {
-                rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32)).1);
+                rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32), Vec2::ZERO).dir);
             }
             hits.nearest(16, 16, &mut rays);
             for i in 0..256 {

@@ -52,6 +52,7 @@
 //! samples (caustics).
 
 use crate::accel::{Accel, Hit};
+use crate::camera::CameraRay;
 use crate::camera_hits::FirstHit;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::features::{Features, Kernel};
@@ -184,13 +185,26 @@ impl<'a> Context<'a> {
     /// traversal meets it.
     #[inline]
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
+        self.intersect_within(o, d, f32::INFINITY, kind, rng)
+    }
+
+    /// `intersect`, from `tmin` to `tmax` (a camera ray's Clip Start and
+    /// End).
+    #[inline]
+    pub(crate) fn intersect_within(&self, o: Vec3, d: Vec3, tmax: f32, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
+        self.intersect_between(o, d, 0.0, tmax, kind, rng)
+    }
+
+    #[inline]
+    pub(crate) fn intersect_between(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
         if let Some(log) = &self.ray_log {
-            log.push(TracedRay { kind, origin: o, dir: d, tmax: f32::INFINITY, skip: u32::MAX });
+            log.push(TracedRay { kind, origin: o, dir: d, tmax, skip: u32::MAX });
         }
-        if self.features.alpha == 0 {
-            return self.accel.intersect(o, d, f32::INFINITY);
+        if self.features.alpha == 0 && tmin == 0.0 {
+            return self.accel.intersect(o, d, tmax);
         }
-        self.accel.intersect_where(o, d, f32::INFINITY, |t, b1, b2| shading::stops_ray(self.scene, t, b1, b2, &mut || rng.next_f32()))
+        let alpha = self.features.alpha > 0;
+        self.accel.intersect_where(o, d, tmax, |triangle, t, b1, b2| t >= tmin && (!alpha || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32())))
     }
 
     /// Whether a shadow ray is blocked, not counting triangle `skip`.
@@ -202,7 +216,7 @@ impl<'a> Context<'a> {
         if self.features.alpha == 0 {
             return self.accel.occluded_except(o, d, tmax, skip);
         }
-        self.accel.occluded_except_where(o, d, tmax, skip, |t, b1, b2| shading::stops_ray(self.scene, t, b1, b2, &mut || rng.next_f32()))
+        self.accel.occluded_except_where(o, d, tmax, skip, |triangle, b1, b2| shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
     }
 }
 
@@ -961,8 +975,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     ctx: &Context,
     prepared: &[Option<[B::Prepared; 2]>],
     light_vertices: Option<&LightVertices>,
-    origin: Vec3,
-    dir: Vec3,
+    camera: &CameraRay,
     importance: f32,
     settings: &RenderSettings,
     rng: &mut Rng,
@@ -972,8 +985,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let max_depth = settings.max_depth;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
-    let (mut o, mut d) = (origin, dir);
-    let mut from = Previous { depth: 0, p: origin, ng: Vec3::ZERO, light_side: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0 };
+    let (mut o, mut d) = (camera.origin, camera.dir);
+    let mut from = Previous { depth: 0, p: camera.origin, ng: Vec3::ZERO, light_side: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0 };
     let (mis_scale, max_vertex_depth, subpaths_traced) = light_vertices.map_or((1.0, 0, 0.0), |v| (v.mis_scale, v.max_vertex_depth, v.tracing));
     // n_T M / p_cam(x1) where light tracing (light_tracing.rs) makes the
     // paths through x1: z is x1, which needs x1 to connect.
@@ -1000,14 +1013,28 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // Whether what this ray reaches counts (strategies.rs): the
         // camera's own, or a BSDF sample's after `depth` bounces.
         let seen_kept = settings.strategies.keeps(if depth == 0 { Strategy::Camera } else { Strategy::Bsdf }, depth);
+        // A camera ray sees only what lies between Clip Start and End.
+        let (skip, reach) = if depth == 0 { (camera.tmin, camera.tmax) } else { (0.0, f32::INFINITY) };
         let hit = match (depth, first) {
             (0, FirstHit::Miss) => None,
-            (0, FirstHit::Slot(slot)) => ctx.accel.hit_in_slot(slot, o, d).or_else(|| ctx.intersect(o, d, RayKind::Camera, rng)),
-            (0, FirstHit::Trace) => ctx.intersect(o, d, RayKind::Camera, rng),
+            // The binned hit is the first along the whole ray: past Clip
+            // End, there is none; before Clip Start, the BVH finds what
+            // lies beyond it.
+            (0, FirstHit::Slot(slot)) => match ctx.accel.hit_in_slot(slot, o, d) {
+                Some(h) if h.t >= skip => (h.t <= reach).then_some(h),
+                _ => ctx.intersect_between(o, d, skip, reach, RayKind::Camera, rng),
+            },
+            (0, FirstHit::Trace) => ctx.intersect_between(o, d, skip, reach, RayKind::Camera, rng),
             _ => ctx.intersect(o, d, RayKind::Bounce, rng),
         };
         // A lamp in front of the surface adds its light; the ray goes on.
-        let lamp = if LAMPS { ctx.lamps.intersect(o, d, hit.map_or(f32::INFINITY, |h| h.t)) } else { None };
+        let lamp = if !LAMPS {
+            None
+        } else if skip > 0.0 {
+            ctx.lamps.intersect_where(o, d, hit.map_or(reach, |h| h.t), |_, t, _, _| t >= skip)
+        } else {
+            ctx.lamps.intersect(o, d, hit.map_or(reach, |h| h.t))
+        };
         if let Some(lamp) = lamp {
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
             let material = &ctx.scene.materials[tri.material as usize];
@@ -1019,7 +1046,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
-            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), &from, settings.mis);
+            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(reach, |h| h.t), &from, settings.mis);
         }
         let Some(hit) = hit else {
             if seen_kept {

@@ -10,7 +10,7 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{LightSize, RenderRequest};
+use crate::request::{LensRequest, LightSize, RenderRequest};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -104,11 +104,13 @@ pub struct SceneExtras<'a> {
     pub single_scatter_materials: &'a [String],
     pub default_surface: Option<[f32; 3]>,
     pub light_sizes: &'a [LightSize],
+    /// The camera's shift and depth of field.
+    pub lens: Option<&'a LensRequest>,
 }
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, default_surface: r.default_surface, light_sizes: &r.light_sizes }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref() }
     }
 }
 
@@ -192,6 +194,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     }
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
     size_lights(&mut scene, extras.light_sizes).map_err(|e| format!("{name}: {e}"))?;
+    if let Some(lens) = extras.lens {
+        scene.camera.set_lens(glam::Vec2::from(lens.shift), lens.aperture).map_err(|e| format!("{name}: lens: {e}"))?;
+    }
     if let Some(env) = &options.environment {
         let map = EnvironmentMap::load(&env.image, env.strength, env.rotation).map_err(|e| format!("{name}: {e}"))?;
         scene.environment = Some(map);

@@ -59,7 +59,9 @@ impl LightTracing<'_> {
         if v.depth < 2 || !connects_from(&y.surface) {
             return None;
         }
-        let seen = self.lens.project(y.p)?;
+        // A point of the aperture to see y from, where the camera has one.
+        let aperture = if self.lens.has_aperture() { rng.next_2d() } else { glam::Vec2::ZERO };
+        let seen = self.lens.project(y.p, aperture)?;
         let w = seen.to_camera;
         let cos_y = w.dot(y.ng);
         // The camera on the side y's light came from, off y's plane by
@@ -86,9 +88,11 @@ impl LightTracing<'_> {
         }
         *rays += 1;
         let origin = y.spawn_origin(w);
-        let to_camera = self.lens.position() - origin;
+        let to_camera = seen.lens_point - origin;
         let length = to_camera.length();
-        if !(length > 0.0) || ctx.occluded(origin, to_camera / length, length, u32::MAX, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
+        // Up to Clip Start, which camera rays start at.
+        let clear = length - (seen.distance - seen.clear);
+        if !(clear > 0.0) || ctx.occluded(origin, to_camera / length, clear, u32::MAX, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
             return None;
         }
         Some(Splat { pixel: seen.pixel, value })

@@ -232,8 +232,8 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let mut total = PassStats::default();
     // Light tracing (light_tracing.rs): subpaths per sample index that
     // reach the camera, n_T.
-    // An orthographic camera cannot be joined to a point (`Lens::pinhole`).
-    let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.pinhole()).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
+    // An orthographic camera cannot be joined to a point (`Lens::joinable`).
+    let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
     let trace_lights = |range: Range<u32>, mis_scale: f32| {
         let started = Instant::now();
         let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, per_sample, settings.max_depth, mis_scale);
@@ -322,9 +322,10 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         let (x, y) = (x0 + i % tw as u32, y0 + i / tw as u32);
                         let mut rng = Rng::for_pixel_sample(sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
                         let jitter = rng.next_2d();
-                        let (origin, dir) = lens.ray(Vec2::new(x as f32, y as f32) + jitter);
-                        rays.set(i as usize, dir);
-                        rngs.push((rng, origin));
+                        let aperture = if lens.has_aperture() { rng.next_2d() } else { Vec2::ZERO };
+                        let ray = lens.ray(Vec2::new(x as f32, y as f32) + jitter, aperture);
+                        rays.set(i as usize, ray.dir);
+                        rngs.push((rng, ray));
                     }
                     if let Some(hits) = &camera_hits {
                         if s == range.start {
@@ -332,10 +333,9 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         }
                         hits.nearest(tw as u32, y1 - y0, rays);
                     }
-                    for (i, (sum, (rng, origin))) in sums[..tile_pixels].iter_mut().zip(rngs.iter_mut()).enumerate() {
-                        let d = rays.dir(i);
+                    for (i, (sum, (rng, ray))) in sums[..tile_pixels].iter_mut().zip(rngs.iter_mut()).enumerate() {
                         let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
-                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, *origin, d, lens.importance(d), settings, rng, &mut stats.rays, first);
+                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.importance(ray.dir), settings, rng, &mut stats.rays, first);
                         if sample_fits(l) {
                             *sum += l;
                         } else {

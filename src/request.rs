@@ -1,7 +1,7 @@
 //! A render request: the small JSON file the Blender addon writes beside the
 //! scene (and `glint render --request` reads) with what glTF cannot say —
-//! image size, samples or a time budget, the camera, the World colour and
-//! Blender's area lights. Every field is optional; unknown fields are an
+//! image size, samples or a time budget, the camera and its lens shift and
+//! depth of field, the World colour and Blender's area lights. Every field is optional; unknown fields are an
 //! error, so a misspelt one is not silently ignored.
 //!
 //! ```json
@@ -13,7 +13,9 @@
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
-//!     { "name": "Sun", "angle": 0.00918 } ] }
+//!     { "name": "Sun", "angle": 0.00918 } ],
+//!   "lens": { "shift": [0.1, 0], "aperture": { "radius": 0.0125,
+//!     "focus_distance": 4.2, "blades": 6, "rotation": 0, "ratio": 1 } } }
 //! ```
 
 use crate::bsdf::BsdfModel;
@@ -69,6 +71,21 @@ pub struct RenderRequest {
     pub environment: Option<EnvironmentRequest>,
     /// Sizes of the glTF file's point, spot and sun lights, by name.
     pub light_sizes: Vec<LightSize>,
+    /// What Blender's camera has and glTF cannot carry.
+    pub lens: Option<LensRequest>,
+}
+
+/// Blender's camera beyond glTF: Shift X and Y, and Depth of Field.
+#[derive(Clone, Debug, Default, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LensRequest {
+    /// Fractions of the image's width and height by which the view moves
+    /// right and up (Blender's shift is in units of the view's larger
+    /// side; the add-on converts it).
+    #[serde(default)]
+    pub shift: [f32; 2],
+    /// Depth of field (camera.rs).
+    pub aperture: Option<crate::camera::Aperture>,
 }
 
 /// What KHR_lights_punctual cannot say of a Blender light (punctual.rs).
@@ -173,7 +190,10 @@ mod tests {
             {"shape": "RECTANGLE", "size": [1, 2], "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,2,0,1],
             "color": [1,1,1], "power": 10, "portal": true}]}"#;
         let r = RenderRequest::parse(ok).unwrap();
-        assert_eq!((r.width, r.height, r.area_lights.len()), (Some(64), Some(32), 2));
+        assert_eq!((r.width, r.height, r.area_lights.len(), r.lens), (Some(64), Some(32), 2, None));
+        let lens = RenderRequest::parse(br#"{"lens": {"shift": [0.1, 0], "aperture": {"radius": 0.01, "focus_distance": 2}}}"#).unwrap().lens.unwrap();
+        let aperture = lens.aperture.unwrap();
+        assert_eq!((lens.shift, aperture.blades, aperture.rotation, aperture.ratio), ([0.1, 0.0], 0, 0.0, 1.0));
         assert!(!r.area_lights[0].portal && r.area_lights[1].portal);
         for (bad, why) in [
             (&br#"{"widht": 64}"#[..], "unknown field"),
@@ -186,6 +206,8 @@ mod tests {
             (br#"{"default_surface": [2, 0, 0]}"#, "default_surface"),
             (br#"{"environment": {"image": "sky.hdr", "strength": -1}}"#, "environment strength"),
             (br#"{"environment": {"strength": 1}}"#, "missing field `image`"),
+            (br#"{"lens": {"aperture": {"radius": 0.01}}}"#, "missing field `focus_distance`"),
+            (br#"{"lens": {"shift": [0.1, 0], "fstop": 2}}"#, "unknown field `fstop`"),
         ] {
             let e = RenderRequest::parse(bad).unwrap_err();
             assert!(e.contains(why) && !e.contains('\n'), "{e}");

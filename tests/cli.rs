@@ -159,6 +159,32 @@ fn emitters_too_bright_to_sum_are_refused() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A request's lens the camera cannot have is refused in one line, naming
+/// the scene and the value; a good one renders.
+#[test]
+fn a_request_lens_out_of_range_is_refused() {
+    let dir = temp_dir("lens");
+    let exr = dir.join("out.exr");
+    let request = dir.join("request.json");
+    for (lens, expect) in [
+        (r#"{"aperture": {"radius": -1, "focus_distance": 2}}"#, "lens: aperture radius -1 must be in [0, 1e15] m"),
+        (r#"{"aperture": {"radius": 0.1, "focus_distance": 0}}"#, "lens: focus distance 0 must be in (0, 1e15] m"),
+        (r#"{"aperture": {"radius": 0.1, "focus_distance": 2, "ratio": 0}}"#, "lens: aperture ratio 0 must be in [0.001, 1000]"),
+        (r#"{"shift": [1e9, 0]}"#, "lens: lens shift [1000000000, 0] must be within ±1000 image sizes"),
+        (r#"{"shift": [0.2, -0.1], "aperture": {"radius": 0.05, "focus_distance": 3.8, "blades": 5}}"#, ""),
+    ] {
+        std::fs::write(&request, format!(r#"{{"width": 8, "height": 8, "samples": 2, "lens": {lens}}}"#)).unwrap();
+        let o = glint(&["render", "--request", request.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
+        let err = stderr(&o);
+        if expect.is_empty() {
+            assert!(o.status.success(), "{lens}: {err}");
+        } else {
+            assert!(!o.status.success() && err.lines().count() == 1 && err.contains(expect) && err.contains(glint::DEFAULT_SCENE_NAME), "{lens}: {err}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn zero_sized_images_and_unknown_cameras_are_rejected() {
     for args in [&["render", "--width", "0"][..], &["render", "--height", "0"], &["render", "--spp", "0"]] {

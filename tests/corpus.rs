@@ -307,7 +307,8 @@ fn mutated_sample_models_load_or_fail_cleanly() {
 /// The default Cornell box with a point, a spot and a sun
 /// (KHR_lights_punctual), and a render request that uses every field the
 /// add-on writes: each area light shape, a Spread, a portal, visible
-/// lamps, the three lights' sizes, an environment image or a World colour.
+/// lamps, the three lights' sizes, an environment image or a World colour,
+/// and the camera's lens shift and aperture (with every other request).
 fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_json::Value) {
     use serde_json::json;
     let scene = default_scene_with_lights(
@@ -336,6 +337,7 @@ fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_
         "light_sizes": [{"name": "Point", "radius": 0.1, "soft_falloff": true}, {"name": "Spot", "radius": 0.05, "soft_falloff": false, "visible_camera": true}, {"name": "Sun", "angle": 0.05}]});
     if let Some(image) = environment {
         request["environment"] = json!({"image": image, "strength": 2.0, "rotation": 0.5});
+        request["lens"] = json!({"shift": [0.1, -0.05], "aperture": {"radius": 0.02, "focus_distance": 3.5, "blades": 6, "rotation": 0.3, "ratio": 1.5}});
     }
     (scene, request)
 }

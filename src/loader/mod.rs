@@ -597,11 +597,11 @@ impl<'a> Builder<'a> {
             // the image's aspect ratio shapes the view, as for a perspective
             // camera, so xmag picks only a default image height.
             let aspect = (o.xmag / o.ymag).abs();
-            let projection = Projection::Orthographic { half_height: o.ymag, near: o.znear };
-            Camera::with_projection(name, &candidate.world, projection, Some(aspect))
+            Camera::with_projection(name, &candidate.world, Projection::Orthographic { half_height: o.ymag }, Some(aspect), [o.znear, o.zfar])
         } else {
             let p = cam.perspective.as_ref().ok_or_else(|| format!("camera '{name}' is perspective but has no perspective object"))?;
-            Camera::from_world(name, &candidate.world, p.yfov, p.aspect_ratio)
+            // No zfar: an infinite projection, which clips nothing far.
+            Camera::with_projection(name, &candidate.world, Projection::Perspective { yfov: p.yfov }, p.aspect_ratio, [p.znear, p.zfar.unwrap_or(f32::INFINITY)])
         }
     }
 

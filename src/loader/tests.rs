@@ -248,15 +248,18 @@ fn cameras_first_of_either_kind_by_name_and_errors() {
     // Depth first, the orthographic camera comes first.
     let s = load(&d).unwrap();
     assert_eq!(s.camera.name, "OrthoNode");
-    assert_eq!(s.camera.projection, Projection::Orthographic { half_height: 1.0, near: 0.1 });
+    assert_eq!(s.camera.projection, Projection::Orthographic { half_height: 1.0 });
     assert_eq!(s.camera.aspect_ratio, Some(2.0));
     let by_name = |d: &serde_json::Value, n: &str| load_bytes(d.to_string().as_bytes(), None, "test.gltf", &LoadOptions { camera: Some(n.into()), ..Default::default() });
     let persp = by_name(&d, "Persp").unwrap().camera;
     assert_eq!((persp.name.as_str(), persp.projection), ("PerspNode", Projection::Perspective { yfov: 0.5 }));
+    // znear and zfar are Clip Start and End; a perspective camera without
+    // zfar clips nothing far.
+    assert_eq!((s.camera.clip, persp.clip), ([0.1, 10.0], [0.1, f32::INFINITY]));
     assert!(by_name(&d, "Nope").unwrap_err().to_string().contains("no camera named 'Nope'"));
     // What the glTF schema forbids or advises against: one line, naming
     // the camera and the value.
-    for (field, value, message) in [("ymag", json!(0), "has ymag 0"), ("ymag", json!(-1), "has ymag -1"), ("znear", json!(-0.5), "has znear -0.5"), ("ymag", json!(1e30), "which must be in (0, 1e15] m")] {
+    for (field, value, message) in [("ymag", json!(0), "has ymag 0"), ("ymag", json!(-1), "has ymag -1"), ("znear", json!(-0.5), "has znear -0.5"), ("ymag", json!(1e30), "which must be in (0, 1e15] m"), ("zfar", json!(0.05), "has zfar 0.05, which must be beyond znear")] {
         let mut bad = d.clone();
         bad["cameras"][0]["orthographic"][field] = value;
         let e = by_name(&bad, "Ortho").unwrap_err().to_string();
@@ -265,7 +268,7 @@ fn cameras_first_of_either_kind_by_name_and_errors() {
     // An unknown type: the one projection object the camera has.
     let mut fisheye = d.clone();
     fisheye["cameras"][0]["type"] = json!("fisheye");
-    assert_eq!(load(&fisheye).unwrap().camera.projection, Projection::Orthographic { half_height: 1.0, near: 0.1 });
+    assert_eq!(load(&fisheye).unwrap().camera.projection, Projection::Orthographic { half_height: 1.0 });
     d["nodes"][2].as_object_mut().unwrap().remove("camera");
     d["nodes"][0].as_object_mut().unwrap().remove("camera");
     assert!(load_err(&d).contains("the scene has no camera"));

@@ -46,6 +46,63 @@ def test_orthographic_edge_pixels_cover_what_the_plane_covers(empty_scene, tmp_p
     assert_corner_coverage(empty_scene, tmp_path, height // 2, width // 2)
 
 
+def test_shifted_view_covers_what_the_plane_covers(empty_scene, tmp_path):
+    """A perspective camera with Shift X 0.1 and Y −0.05 on a 48 × 32
+    image: Blender's shift is in units of the view's larger side, so the
+    view moves 4.8 pixels right and 2.4 down, and the plane's corner,
+    placed 5.1 pixels right of and 1.7 below the axis, lands 0.3 right of
+    and 0.7 above the image centre (`assert_corner_coverage`)."""
+    width, height = 48, 32
+    pixel = 2 * DISTANCE * 18 / LENS / width  # the 36 mm sensor spans the width
+    x0, y0 = 5.1 * pixel, -1.7 * pixel
+    emitter = plane(empty_scene, "Plane", [(x0, y0, 0), (50, y0, 0), (50, 50, 0), (x0, 50, 0)])
+    give_principled(emitter, "Emitter", Base_Color=(0, 0, 0, 1), Emission_Color=(1, 1, 1, 1),
+                    Emission_Strength=1.0, Specular_IOR_Level=0.0)
+    camera = add_camera(empty_scene, (0, 0, DISTANCE), lens=LENS).data
+    camera.shift_x, camera.shift_y = 0.1, -0.05
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = width, height
+    assert_corner_coverage(empty_scene, tmp_path, height // 2, width // 2)
+
+
+def test_depth_of_field_blurs_the_corner_as_in_cycles(empty_scene, tmp_path):
+    """Depth of Field focused by an Empty 4 m in front of the camera, the
+    plane 10 m away: F-Stop 0.1 on a 50 mm lens is a 0.25 m aperture, so
+    the corner blurs over about 2.5 pixels vertically, half that across
+    (Ratio 2), through a seven-bladed aperture turned by 0.4 rad. Every
+    pixel within 6 of the corner, Cycles' against Glint's: each is a
+    fraction of the samples that see the plane, binomial noise at most
+    √(p(1−p)/N) a renderer; the tolerance is 5 σ of their difference.
+    An aperture 10% too large fails it (2.2 × the tolerance), and a Ratio
+    applied the wrong way round (14 ×)."""
+    width, height = 48, 32
+    pixel = 2 * DISTANCE * 18 / LENS / width
+    x0, y0 = 0.3 * pixel, 0.7 * pixel
+    emitter = plane(empty_scene, "Plane", [(x0, y0, 0), (50, y0, 0), (50, 50, 0), (x0, 50, 0)])
+    give_principled(emitter, "Emitter", Base_Color=(0, 0, 0, 1), Emission_Color=(1, 1, 1, 1),
+                    Emission_Strength=1.0, Specular_IOR_Level=0.0)
+    camera_object = add_camera(empty_scene, (0, 0, DISTANCE), lens=LENS)
+    focus = bpy.data.objects.new("Focus", None)
+    focus.location = (1.0, -0.5, DISTANCE - 4.0)  # 4 m along the view axis, off it
+    empty_scene.collection.objects.link(focus)
+    dof = camera_object.data.dof
+    dof.use_dof, dof.focus_object, dof.aperture_fstop = True, focus, 0.1
+    dof.aperture_blades, dof.aperture_rotation, dof.aperture_ratio = 7, 0.4, 2.0
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = width, height
+    empty_scene.view_settings.view_transform = "Standard"
+    samples, seeds = 8192, 2
+    cycles, glint = render_seeds(empty_scene, tmp_path, samples, 1, seeds)
+    c, g = np.mean(cycles, 0)[..., 0], np.mean(glint, 0)[..., 0]
+    r, k = height // 2, width // 2
+    patch = (slice(r - 6, r + 7), slice(k - 6, k + 7))
+    c, g = c[patch], g[patch]
+    # The blur is there: a sharp corner has 0 or 1 everywhere but a cross.
+    assert ((c > 0.05) & (c < 0.95)).sum() > 30, c
+    p = (c + g) / 2
+    tolerance = 5 * np.sqrt(2 * p * (1 - p) / (samples * seeds)) + 1e-3
+    worst = np.max(np.abs(c - g) / tolerance)
+    assert worst < 1, (worst, np.round(c, 3), np.round(g, 3))
+
+
 def plane(scene, name, corners):
     """A one-quad mesh object."""
     mesh = bpy.data.meshes.new(name)

@@ -75,7 +75,7 @@ pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     let forward = (target - eye).normalize();
     // Straight down or up: any horizontal right vector will do.
     let right = forward.cross(Vec3::Y).try_normalize().unwrap_or(Vec3::X);
-    Camera { name: "cam".into(), position: eye, right, up: right.cross(forward), forward, projection: Projection::Perspective { yfov }, aspect_ratio: None }
+    Camera { name: "cam".into(), position: eye, right, up: right.cross(forward), forward, projection: Projection::Perspective { yfov }, aspect_ratio: None, clip: [0.0, f32::INFINITY], shift: glam::Vec2::ZERO, aperture: None }
 }
 
 pub fn diffuse(name: &str, albedo: f32) -> Material {
