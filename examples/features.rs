@@ -21,7 +21,7 @@ use glint::integrator::Context;
 use glint::job::{self, JobOptions};
 use glint::render::{render_pass, Film, LightPaths, RenderSettings};
 use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -120,14 +120,14 @@ fn memory(scene: &Path) -> anyhow::Result<()> {
 
 /// The scene as a GLB, its buffer in the BIN chunk; with `unused` > 0 the
 /// BIN chunk also holds about that many bytes the scene never references.
-fn write_glb(path: &PathBuf, doc: &Value, unused: usize) -> anyhow::Result<()> {
+fn write_glb(path: &Path, doc: &Value, unused: usize) -> anyhow::Result<()> {
     use base64::Engine;
     let mut doc = doc.clone();
     let uri = doc["buffers"][0]["uri"].as_str().unwrap_or_default();
     let mut bin = base64::engine::general_purpose::STANDARD.decode(uri.split_once(',').map_or("", |(_, b)| b))?;
     if unused > 0 {
         let view = |bytes: usize, bin: &mut Vec<u8>, doc: &mut Value| {
-            while bin.len() % 4 != 0 {
+            while !bin.len().is_multiple_of(4) {
                 bin.push(0);
             }
             let offset = bin.len();

@@ -1,4 +1,9 @@
 //! Glint: a physically based path tracer for glTF 2.0 scenes.
+
+// `!(x > 0.0)` is how this code rejects NaN along with what is out of
+// range, at the source of a division or a sample: `x <= 0.0` would let NaN
+// through, and `partial_cmp` says the same at twice the length.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod accel;
 pub mod affinity;
 pub mod bsdf;

@@ -342,7 +342,9 @@ fn axis_ends(lights: &[TreeLight], centre: Vec3, radius: f32, cell: &Cell) -> [[
         for (a, axis) in axes.iter().enumerate() {
             let along = axis.dot(v);
             let most = if along >= length * AXIS_COS { length } else { along * AXIS_COS + axis.cross(v).length() * sin_cone };
-            // max, then min: as `LightCache::parts`.
+            // max, then min: as `LightCache::parts` (NaN becomes 0 there,
+            // where `clamp` keeps it).
+            #[allow(clippy::manual_clamp)]
             let facing = ((most + radius + own + slack) * cell.inv_dist[i]).max(0.0).min(1.0);
             ends[a][i] = cell.bound[i] * facing;
         }

@@ -36,6 +36,8 @@ pub struct SphericalRectangle {
 /// at a time, had been half the time of seeing a rectangle.
 fn acos4(x: Vec4) -> Vec4 {
     let a = x.abs().min(Vec4::ONE);
+    // The book's coefficients as printed; f32 rounds a few of their digits.
+    #[allow(clippy::excessive_precision)]
     let c = [-0.001_262_491_1, 0.006_670_090_1, -0.017_088_125_6, 0.030_891_881, -0.050_174_304_6, 0.088_978_987_4, -0.214_598_801_6, 1.570_796_305];
     let poly = c.iter().fold(Vec4::ZERO, |acc, &k| acc * a + Vec4::splat(k));
     let r = (Vec4::ONE - a).max(Vec4::ZERO).sqrt() * poly;

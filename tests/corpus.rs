@@ -56,7 +56,7 @@ fn guarded<T: Send + 'static>(path: &Path, work: impl FnOnce(&Path) -> T + Send 
 
 /// Inspect (read everything) in a worker thread.
 fn load_guarded(path: &Path) -> Outcome {
-    match guarded(path, |p| inspect_file(p)) {
+    match guarded(path, inspect_file) {
         Ok(Ok(found)) => Outcome::Loaded(found.triangles),
         Ok(Err(e)) => Outcome::Error(e.to_string()),
         Err(panic) => Outcome::Panicked(panic),

@@ -10,7 +10,7 @@ pub fn write_glb(path: &Path, doc: &serde_json::Value, mut bin: Vec<u8>) -> anyh
     while json_bytes.len() % 4 != 0 {
         json_bytes.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json_bytes.len() + 8 + bin.len();

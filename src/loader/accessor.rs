@@ -205,7 +205,7 @@ pub struct FloatData {
 
 impl FloatData {
     pub fn count(&self) -> usize {
-        if self.components == 0 { 0 } else { self.values.len() / self.components }
+        self.values.len().checked_div(self.components).unwrap_or(0)
     }
     pub fn get3(&self, i: usize) -> [f32; 3] {
         let v = &self.values[i * self.components..];

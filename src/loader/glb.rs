@@ -86,7 +86,7 @@ pub(super) mod tests {
     /// (default: the true length).
     pub(in crate::loader) fn glb(json: &[u8], bin: Option<&[u8]>, claimed: Option<u32>) -> Vec<u8> {
         let mut out = Vec::new();
-        let pad = |v: &mut Vec<u8>, fill: u8| while v.len() % 4 != 0 { v.push(fill) };
+        let pad = |v: &mut Vec<u8>, fill: u8| while !v.len().is_multiple_of(4) { v.push(fill) };
         let mut j = json.to_vec();
         pad(&mut j, b' ');
         let mut body = Vec::new();
