@@ -1046,7 +1046,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
-            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(reach, |h| h.t), &from, settings.mis);
+            // A ray that hits nothing before Clip End has left the scene
+            // (it sees the World): a sun's disk too. (A sized point or spot
+            // the camera sees is not clipped.)
+            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), &from, settings.mis);
         }
         let Some(hit) = hit else {
             if seen_kept {

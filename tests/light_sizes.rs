@@ -1,6 +1,7 @@
 //! The request's light_sizes reach the named point, spot and sun lights,
 //! and a bad size is a one-line error naming the light. A sized light is
-//! seen by BSDF rays (a mirror shows it) but not by the camera, and
+//! seen by BSDF rays (a mirror shows it) but not by the camera (unless it
+//! may: a sun past Clip End too), and
 //! weighting its light samples against those rays (MIS) leaves the image
 //! what light sampling alone gives.
 
@@ -117,4 +118,22 @@ fn light_sizes_reach_the_named_lights_and_bad_ones_are_errors() {
     let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { light_sizes: &bad, ..SceneExtras::default() }).err().unwrap();
     assert!(err.contains("lights.gltf") && err.contains("Lamp") && !err.contains('\n'), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A camera with a Clip End (Blender's, through glTF's zfar) sees a sun
+/// it is allowed to see: a ray that reaches Clip End without a hit has
+/// left the scene, as in Cycles, where it shows the World, and the sun's
+/// disk is part of that sky (it had been hidden, as if something stood in
+/// front of it).
+#[test]
+fn a_camera_with_a_clip_end_sees_the_sun_it_may_see() {
+    let sun = PunctualLight { kind: PunctualKind::Sun, direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.05, camera_sees: true, ..lamp(false) };
+    let mut scene = Scene::new(vec![], vec![], look_at(Vec3::ZERO, Vec3::Y, 0.01));
+    scene.punctual.push(sun);
+    let expected = 3.0 / (PI * 0.05f32.sin().powi(2));
+    for clip in [[0.0, f32::INFINITY], [0.1, 100.0]] {
+        scene.camera.clip = clip;
+        let img = render(&scene, &settings(3, 3, 1, 2, 1), 1).0;
+        assert!(img.iter().all(|p| (p.x - expected).abs() < 1e-4 * expected), "clip {clip:?}: {:?} vs {expected}", img[4]);
+    }
 }
