@@ -259,8 +259,31 @@ pub struct Seen {
     /// How much of that distance, from the point, must be clear: the rest
     /// is nearer the camera than Clip Start, which camera rays skip.
     pub clear: f32,
-    /// W of the direction (`Lens::importance`).
-    pub importance: f32,
+    /// How densely the camera's rays reach the point (`Lens::density`).
+    pub density: CameraDensity,
+}
+
+/// How densely a pixel's samples reach a point x a camera ray meets, which
+/// light tracing's MIS weighs against: per unit area at x, with `cos` the
+/// cosine there and `t2` the squared distance from the lens.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CameraDensity {
+    /// W per steradian (`Lens::importance`): W·cos/t².
+    PerSolidAngle(f32),
+    /// An orthographic camera's rays fill the image plane evenly, one
+    /// direction: 1/A per unit of that plane, where A is a pixel's area
+    /// there, and cos/A per unit area at x.
+    PerArea(f32),
+}
+
+impl CameraDensity {
+    #[inline]
+    pub fn at(self, cos: f32, t2: f32) -> f32 {
+        match self {
+            CameraDensity::PerSolidAngle(w) => w * cos / t2,
+            CameraDensity::PerArea(inverse_area) => inverse_area * cos,
+        }
+    }
 }
 
 impl Lens<'_> {
@@ -307,11 +330,25 @@ impl Lens<'_> {
         !self.orthographic && !self.has_aperture()
     }
 
-    /// Whether a point can be joined to the camera (`project`): not an
-    /// orthographic one, whose rays from a point of the image share one
-    /// direction, which a light subpath's vertex meets with probability 0.
+    /// Whether a point can be joined to the camera (`project`): a
+    /// perspective camera through its centre or a point of its aperture,
+    /// an orthographic one along its one direction (as a sun is joined to
+    /// a point lit), but not an orthographic one with an aperture, whose
+    /// rays through a point of the plane of focus are not drawn by area.
     pub fn joinable(&self) -> bool {
-        !self.orthographic
+        !(self.orthographic && self.has_aperture())
+    }
+
+    /// How densely the camera's ray in direction `dir` reaches what it
+    /// meets (`CameraDensity`); 0 where no other strategy can reach the
+    /// camera (`joinable`).
+    #[inline]
+    pub fn density(&self, dir: Vec3) -> CameraDensity {
+        match (self.orthographic, self.joinable()) {
+            (false, _) => CameraDensity::PerSolidAngle(self.importance(dir)),
+            (true, true) => CameraDensity::PerArea(1.0 / self.pixel_area),
+            (true, false) => CameraDensity::PerArea(0.0),
+        }
     }
 
     /// Where a perspective camera's centre is.
@@ -325,12 +362,11 @@ impl Lens<'_> {
     /// cos³θ dA there). A pixel's value is ∫ W L dω over its directions.
     /// From a point of an aperture it is the same: the pixel's patch of
     /// the plane of focus, seen from there, subtends the same density.
-    /// 0 for an orthographic camera, which no other strategy reaches
-    /// (`joinable`).
+    /// For a perspective camera (`density`).
     #[inline]
     pub fn importance(&self, dir: Vec3) -> f32 {
         let cos = dir.dot(self.camera.forward);
-        if cos > 0.0 && self.joinable() { 1.0 / (self.pixel_area * cos * cos * cos) } else { 0.0 }
+        if cos > 0.0 { 1.0 / (self.pixel_area * cos * cos * cos) } else { 0.0 }
     }
 
     /// Where on a perspective camera's image (in pixels, as `ray` takes
@@ -365,12 +401,26 @@ impl Lens<'_> {
 
     /// The pixel a point appears in, if any, seen from a point of the
     /// aperture drawn from `aperture_u` (as `ray` draws it): the inverse of
-    /// `ray`. None for an orthographic camera (`joinable`).
+    /// `ray`. None where the camera is not `joinable`.
     pub fn project(&self, p: Vec3, aperture_u: Vec2) -> Option<Seen> {
         if !self.joinable() {
             return None;
         }
         let c = self.camera;
+        if self.orthographic {
+            // Seen along −forward from the image plane through the camera.
+            let v = p - c.position;
+            let depth = v.dot(c.forward);
+            let s = (Vec2::new(v.dot(c.right), v.dot(c.up)) - self.shift) / self.half_height;
+            let (x, y) = ((s.x / self.aspect + 1.0) * 0.5 * self.width, (1.0 - s.y) * 0.5 * self.height);
+            let [near, far] = c.clip;
+            if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height && depth > near && depth <= far) {
+                return None;
+            }
+            let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
+            let density = self.density(c.forward);
+            return Some(Seen { pixel: py * self.image_width + px, lens_point: p - c.forward * depth, to_camera: -c.forward, distance: depth, clear: depth - near, density });
+        }
         let (lens_point, focus) = match c.aperture {
             None => (c.position, None),
             Some(a) => {
@@ -405,7 +455,7 @@ impl Lens<'_> {
         }
         // Rounding can put x or y on the far edge.
         let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
-        Some(Seen { pixel: py * self.image_width + px, lens_point, to_camera: -dir, distance, clear: distance - skipped, importance: self.importance(dir) })
+        Some(Seen { pixel: py * self.image_width + px, lens_point, to_camera: -dir, distance, clear: distance - skipped, density: self.density(dir) })
     }
 }
 
@@ -605,21 +655,28 @@ mod tests {
 
     /// An orthographic camera's rays all look down −Z, from the near plane
     /// on, over a view `2·half_height` tall and as wide as the image's aspect
-    /// makes it; nothing projects onto it, and its importance is 0.
+    /// makes it; a point projects onto it along its one direction.
     #[test]
     fn orthographic_rays_are_parallel_from_the_near_plane() {
         let world = Mat4::from_translation(glam::Vec3::new(1.0, 2.0, 3.0));
         let cam = Camera::with_projection("o".into(), &world, Projection::Orthographic { half_height: 1.5 }, None, [0.25, 10.0]).unwrap();
         let lens = cam.lens(200, 100);
-        assert!(!lens.pinhole() && !lens.joinable());
+        assert!(!lens.pinhole() && lens.joinable());
         for (pixel, expected) in [((0.0, 0.0), (-3.0, 1.5)), ((200.0, 100.0), (3.0, -1.5)), ((100.0, 50.0), (0.0, 0.0)), ((150.0, 25.0), (1.5, 0.75))] {
             let ray = lens.ray(Vec2::new(pixel.0, pixel.1), Vec2::ZERO);
             assert_eq!((ray.dir, ray.tmin, ray.tmax), (Vec3::NEG_Z, 0.25, 10.0));
             let want = Vec3::new(1.0 + expected.0, 2.0 + expected.1, 3.0);
             assert!((ray.origin - want).length() < 1e-6, "{pixel:?}: {} against {want}", ray.origin);
         }
-        assert!(lens.project(Vec3::new(1.0, 2.0, 0.0), Vec2::ZERO).is_none());
-        assert_eq!(lens.importance(Vec3::NEG_Z), 0.0);
+        // A point is seen along −forward, from where on the image plane the
+        // ray through it starts, at its depth, beyond Clip Start only.
+        let seen = lens.project(Vec3::new(2.5, 2.75, -1.0), Vec2::ZERO).unwrap();
+        let ray = lens.ray(Vec2::new(150.0, 25.0), Vec2::ZERO);
+        assert_eq!((seen.pixel, seen.to_camera, seen.distance, seen.clear), (25 * 200 + 150, Vec3::Z, 4.0, 3.75));
+        assert!((seen.lens_point - ray.origin).length() < 1e-5, "{} {}", seen.lens_point, ray.origin);
+        assert!(lens.project(Vec3::new(1.0, 2.0, 2.9), Vec2::ZERO).is_none() && lens.project(Vec3::new(1.0, 2.0, -7.5), Vec2::ZERO).is_none());
+        // A pixel is 0.03 × 0.03 m: its samples land at 1/A per unit area.
+        assert_eq!(seen.density, CameraDensity::PerArea(1.0 / (0.03 * 0.03)));
         assert!(Camera::from_world("p".into(), &world, 1.0, None).unwrap().lens(64, 64).pinhole());
     }
 }

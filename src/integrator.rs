@@ -52,7 +52,7 @@
 //! samples (caustics).
 
 use crate::accel::{Accel, Hit};
-use crate::camera::CameraRay;
+use crate::camera::{CameraDensity, CameraRay};
 use crate::camera_hits::FirstHit;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::features::{Features, Kernel};
@@ -976,7 +976,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     prepared: &[Option<[B::Prepared; 2]>],
     light_vertices: Option<&LightVertices>,
     camera: &CameraRay,
-    importance: f32,
+    density: CameraDensity,
     settings: &RenderSettings,
     rng: &mut Rng,
     rays: &mut RayCounts,
@@ -1077,7 +1077,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let joins = from.chain > 0.0 && area_pdf > 0.0 && carries_light_paths(&si.surface) && after_z <= max_vertex_depth;
         let connects = AREA && z_depth.is_none() && depth + 2 <= max_depth && light_vertices.is_some() && connects_from(&si.surface);
         if depth == 0 && connects && subpaths_traced > 0.0 {
-            let p_camera = importance * d.dot(si.ng).abs() / t2;
+            let p_camera = density.at(d.dot(si.ng).abs(), t2);
             tracing_over = if p_camera > 0.0 && p_camera.is_finite() { subpaths_traced * mis_scale / p_camera } else { 0.0 };
         }
         // Light tracing makes paths whose x1 … x_{depth+1} are a subpath's

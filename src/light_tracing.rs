@@ -79,7 +79,7 @@ impl LightTracing<'_> {
             return None;
         }
         // The camera's density per unit area at y, per pixel sample.
-        let p_camera = seen.importance * cos_y / (seen.distance * seen.distance);
+        let p_camera = seen.density.at(cos_y, seen.distance * seen.distance);
         let value = f_y * v.alpha * (p_camera * wi_y.z / (v.to_prev.dot(y.ng) * self.subpaths));
         let weight = 1.0 / (1.0 + self.others_over_this(v, p_camera, pdf_y));
         let value = value * weight;

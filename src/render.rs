@@ -232,7 +232,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let mut total = PassStats::default();
     // Light tracing (light_tracing.rs): subpaths per sample index that
     // reach the camera, n_T.
-    // An orthographic camera cannot be joined to a point (`Lens::joinable`).
+    // Not every camera can be joined to a point (`Lens::joinable`).
     let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
     let trace_lights = |range: Range<u32>, mis_scale: f32| {
         let started = Instant::now();
@@ -335,7 +335,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     }
                     for (i, (sum, (rng, ray))) in sums[..tile_pixels].iter_mut().zip(rngs.iter_mut()).enumerate() {
                         let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
-                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.importance(ray.dir), settings, rng, &mut stats.rays, first);
+                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first);
                         if sample_fits(l) {
                             *sum += l;
                         } else {
