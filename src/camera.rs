@@ -307,7 +307,9 @@ impl Lens<'_> {
                 Some((l, focus)) => CameraRay { origin: start + l, dir: (c.forward * focus - l).normalize(), tmin: near, tmax: far },
             };
         }
-        let pinhole = c.forward + on_plane;
+        // Summed in this order, a ray's bits are those of every earlier
+        // version (images stay the same to the byte).
+        let pinhole = c.forward + c.right * s.x + c.up * s.y;
         // Clip Start and End are depths: along a ray of the image point,
         // depth × |pinhole|, as Cycles measures them for either kind of ray.
         let stretch = pinhole.length();
@@ -377,8 +379,10 @@ impl Lens<'_> {
         let c = self.camera;
         let z = v.dot(c.forward);
         (z > 0.0).then(|| {
-            let s = Vec2::new(v.dot(c.right), v.dot(c.up)) / z - self.shift;
-            Vec2::new((s.x / (self.half_height * self.aspect) + 1.0) * 0.5 * self.width, (1.0 - s.y / self.half_height) * 0.5 * self.height)
+            // The shift taken off before the one division: with none, the
+            // bits of every earlier version.
+            let s = Vec2::new(v.dot(c.right), v.dot(c.up)) - self.shift * z;
+            Vec2::new((s.x / (z * self.half_height * self.aspect) + 1.0) * 0.5 * self.width, (1.0 - s.y / (z * self.half_height)) * 0.5 * self.height)
         })
     }
 
