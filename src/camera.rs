@@ -256,9 +256,9 @@ pub struct Seen {
     /// Unit direction from the point to `lens_point`, and its distance.
     pub to_camera: Vec3,
     pub distance: f32,
-    /// How much of that distance, from the point, must be clear: the rest
-    /// is nearer the camera than Clip Start, which camera rays skip.
-    pub clear: f32,
+    /// How much of that distance, from the lens, camera rays skip (nearer
+    /// than Clip Start): what stands there blocks nothing.
+    pub skipped: f32,
     /// How densely the camera's rays reach the point (`Lens::density`).
     pub density: CameraDensity,
 }
@@ -295,13 +295,12 @@ impl Lens<'_> {
         let c = self.camera;
         let [near, far] = c.clip;
         let s = Vec2::new((2.0 * pixel.x / self.width - 1.0) * self.half_height * self.aspect, (1.0 - 2.0 * pixel.y / self.height) * self.half_height) + self.shift;
-        let on_plane = c.right * s.x + c.up * s.y;
         let lens = c.aperture.map(|a| {
             let l = a.sample(aperture_u);
             (c.right * l.x + c.up * l.y, a.focus_distance)
         });
         if self.orthographic {
-            let start = c.position + on_plane;
+            let start = c.position + c.right * s.x + c.up * s.y;
             return match lens {
                 None => CameraRay { origin: start, dir: c.forward, tmin: near, tmax: far },
                 Some((l, focus)) => CameraRay { origin: start + l, dir: (c.forward * focus - l).normalize(), tmin: near, tmax: far },
@@ -391,11 +390,6 @@ impl Lens<'_> {
         self.camera.forward
     }
 
-    /// Clip Start and End (depths along `forward`).
-    pub fn clip(&self) -> [f32; 2] {
-        self.camera.clip
-    }
-
     /// The distance from the camera, per unit of depth along `forward`,
     /// of the frustum's farthest corner.
     pub fn corner_stretch(&self) -> f32 {
@@ -423,7 +417,7 @@ impl Lens<'_> {
             }
             let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
             let density = self.density(c.forward);
-            return Some(Seen { pixel: py * self.image_width + px, lens_point: p - c.forward * depth, to_camera: -c.forward, distance: depth, clear: depth - near, density });
+            return Some(Seen { pixel: py * self.image_width + px, lens_point: p - c.forward * depth, to_camera: -c.forward, distance: depth, skipped: near, density });
         }
         let (lens_point, focus) = match c.aperture {
             None => (c.position, None),
@@ -459,7 +453,7 @@ impl Lens<'_> {
         }
         // Rounding can put x or y on the far edge.
         let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
-        Some(Seen { pixel: py * self.image_width + px, lens_point, to_camera: -dir, distance, clear: distance - skipped, density: self.density(dir) })
+        Some(Seen { pixel: py * self.image_width + px, lens_point, to_camera: -dir, distance, skipped, density: self.density(dir) })
     }
 }
 
@@ -502,7 +496,7 @@ mod tests {
                     assert_eq!(seen.pixel, y as u32 * 64 + x as u32, "({x}, {y}) {u}");
                     assert!((ray.origin - seen.lens_point).length() < 1e-6);
                     assert!((seen.to_camera + ray.dir).length() < 1e-5 && (seen.distance - 7.0).abs() < 1e-4);
-                    assert!((seen.clear - (7.0 - ray.tmin)).abs() < 1e-4, "{} {}", seen.clear, ray.tmin);
+                    assert!((seen.skipped - ray.tmin).abs() < 1e-5, "{} {}", seen.skipped, ray.tmin);
                 }
             }
             assert!(lens.project(cam.position - cam.forward, Vec2::splat(0.5)).is_none());
@@ -564,7 +558,7 @@ mod tests {
             let at = |d: f32| lens.project(cam.position + ray.dir * (d / ray.dir.dot(cam.forward)), Vec2::ZERO);
             assert!(at(0.4).is_none() && at(20.5).is_none());
             let seen = at(2.0).unwrap();
-            assert!((seen.clear - seen.distance * 0.75).abs() < 1e-5);
+            assert!((seen.skipped - seen.distance * 0.25).abs() < 1e-5);
         }
     }
 
@@ -676,7 +670,7 @@ mod tests {
         // ray through it starts, at its depth, beyond Clip Start only.
         let seen = lens.project(Vec3::new(2.5, 2.75, -1.0), Vec2::ZERO).unwrap();
         let ray = lens.ray(Vec2::new(150.0, 25.0), Vec2::ZERO);
-        assert_eq!((seen.pixel, seen.to_camera, seen.distance, seen.clear), (25 * 200 + 150, Vec3::Z, 4.0, 3.75));
+        assert_eq!((seen.pixel, seen.to_camera, seen.distance, seen.skipped), (25 * 200 + 150, Vec3::Z, 4.0, 0.25));
         assert!((seen.lens_point - ray.origin).length() < 1e-5, "{} {}", seen.lens_point, ray.origin);
         assert!(lens.project(Vec3::new(1.0, 2.0, 2.9), Vec2::ZERO).is_none() && lens.project(Vec3::new(1.0, 2.0, -7.5), Vec2::ZERO).is_none());
         // A pixel is 0.03 × 0.03 m: its samples land at 1/A per unit area.

@@ -90,8 +90,8 @@ impl LightTracing<'_> {
         let origin = y.spawn_origin(w);
         let to_camera = seen.lens_point - origin;
         let length = to_camera.length();
-        // Up to Clip Start, which camera rays start at.
-        let clear = length - (seen.distance - seen.clear);
+        // Up to Clip Start: camera rays see nothing nearer.
+        let clear = length - seen.skipped;
         if !(clear > 0.0) || ctx.occluded(origin, to_camera / length, clear, u32::MAX, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
             return None;
         }
