@@ -36,12 +36,21 @@ from mathutils import Matrix
 Z_UP_TO_Y_UP = Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
 
 
+class UnsupportedScene(Exception):
+    """What the scene has that cannot go to Glint, in one line."""
+
+
 def export_scene(path, frame, subframe):
     """Export the active scene at a frame as GLB to `path` (written whole,
     then renamed)."""
     # The exporter reads the view layer's depsgraph, which an animation
     # render does not move to the frame it renders: evaluate that frame.
     bpy.context.scene.frame_set(frame, subframe=subframe)
+    # Blender 4.5's exporter fails on a panoramic camera with a KeyError
+    # ('current_paths') that would tell the user nothing.
+    panoramic = sorted(i.object.name for i in bpy.context.evaluated_depsgraph_get().object_instances if i.object.type == "CAMERA" and i.object.data.type == "PANO")
+    if panoramic:
+        raise UnsupportedScene(f"panoramic cameras are not rendered yet (Blender's glTF exporter cannot export them): {', '.join(panoramic)}")
     normal_maps = any(uses_node(m, {"NORMAL_MAP"}) for m in used_materials(bpy.context.evaluated_depsgraph_get()))
     directory, name = os.path.split(path)
     tmp = os.path.join(directory, f".{name}.export.glb")

@@ -176,6 +176,17 @@ def test_a_missing_executable_is_one_clear_error(empty_scene, monkeypatch):
     assert "/nonexistent/glint" in message and "GLINT_EXECUTABLE" in message and "Traceback" not in message
 
 
+def test_a_panoramic_camera_is_one_clear_error(empty_scene):
+    """Blender's glTF exporter raises a bare KeyError on a panoramic camera;
+    the add-on says what is wrong and names the camera instead."""
+    cam = build_scene(empty_scene)
+    cam.data.type = "PANO"
+    with pytest.raises(RuntimeError) as error:
+        bpy.ops.render.render()
+    message = str(error.value)
+    assert "panoramic cameras are not rendered yet" in message and "Camera" in message and "current_paths" not in message, message
+
+
 def test_an_animation_renders_every_frame_with_its_camera(empty_scene, tmp_path):
     cam = build_scene(empty_scene)
     empty_scene.glint.samples = 2
