@@ -8,6 +8,7 @@ across the image's larger side, Clip Start)."""
 
 import bpy
 import numpy as np
+import pytest
 from helpers import add_camera, give_principled, render_seeds
 
 SIZE, DISTANCE, LENS = 32, 10.0, 50.0
@@ -46,14 +47,15 @@ def test_orthographic_edge_pixels_cover_what_the_plane_covers(empty_scene, tmp_p
     assert_corner_coverage(empty_scene, tmp_path, height // 2, width // 2)
 
 
-def test_shifted_view_covers_what_the_plane_covers(empty_scene, tmp_path):
-    """A perspective camera with Shift X 0.1 and Y −0.05 on a 48 × 32
-    image: Blender's shift is in units of the view's larger side, so the
-    view moves 4.8 pixels right and 2.4 down, and the plane's corner,
-    placed 5.1 pixels right of and 1.7 below the axis, lands 0.3 right of
-    and 0.7 above the image centre (`assert_corner_coverage`)."""
-    width, height = 48, 32
-    pixel = 2 * DISTANCE * 18 / LENS / width  # the 36 mm sensor spans the width
+@pytest.mark.parametrize("width, height", [(48, 32), (32, 48)])
+def test_shifted_view_covers_what_the_plane_covers(empty_scene, tmp_path, width, height):
+    """A perspective camera with Shift X 0.1 and Y −0.05 on a 48 × 32 and
+    a 32 × 48 image: Blender's shift is in units of the view's larger side
+    (the one its sensor fits), so either way the view moves 4.8 pixels
+    right and 2.4 down, and the plane's corner, placed 5.1 pixels right of
+    and 1.7 below the axis, lands 0.3 right of and 0.7 above the image
+    centre (`assert_corner_coverage`)."""
+    pixel = 2 * DISTANCE * 18 / LENS / max(width, height)  # the 36 mm sensor spans the larger side
     x0, y0 = 5.1 * pixel, -1.7 * pixel
     emitter = plane(empty_scene, "Plane", [(x0, y0, 0), (50, y0, 0), (50, 50, 0), (x0, 50, 0)])
     give_principled(emitter, "Emitter", Base_Color=(0, 0, 0, 1), Emission_Color=(1, 1, 1, 1),
