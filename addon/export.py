@@ -18,7 +18,7 @@ Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
 Through the request: resolution × percentage, the scene camera and what
-glTF cannot say of it (Shift X and Y, Depth of Field), samples, bounces,
+glTF cannot say of it (Shift X and Y, Depth of Field), Film › Transparent, samples, bounces,
 time limit, seed, the World colour, every area light (glTF has none):
 shape, size, world transform, colour and power, and the sizes of the
 point, spot and sun lights. (The camera's Clip Start and End go through
@@ -243,6 +243,8 @@ def render_request(depsgraph, job, width, height):
         request["time_limit"] = settings.time_limit
     if settings.light_paths != "AUTO":
         request["light_paths"] = settings.light_paths == "ON"
+    if scene.render.film_transparent:
+        request["transparent_film"] = True
     if scene.camera is not None:
         request["camera"] = scene.camera.name
         lens = camera_lens(scene, scene.camera)

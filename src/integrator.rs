@@ -969,7 +969,8 @@ fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u3
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
 /// light parts that are on (features.rs; a part that is off is not tested
 /// for at all). `first` is what the ray reaches first where the caller
-/// has found it (camera_hits.rs).
+/// has found it (camera_hits.rs). With it, whether the ray met a surface
+/// (a transparent film's coverage).
 #[allow(clippy::too_many_arguments)]
 pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
     ctx: &Context,
@@ -981,7 +982,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     rng: &mut Rng,
     rays: &mut RayCounts,
     first: FirstHit,
-) -> Vec3 {
+) -> (Vec3, bool) {
     let max_depth = settings.max_depth;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
@@ -1052,10 +1053,12 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), &from, settings.mis);
         }
         let Some(hit) = hit else {
-            if seen_kept {
+            // Film › Transparent: the camera does not see the World (it
+            // still lights what the camera sees).
+            if seen_kept && !(depth == 0 && settings.transparent) {
                 l += beta * world_seen(ctx, d, &from, settings.mis);
             }
-            break;
+            return (l, depth > 0);
         };
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
@@ -1159,7 +1162,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         from = Previous { depth: depth + 1, p: si.p, ng: si.ng, light_side: light_side(&si, &bsdf), bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing };
         rays.bounce += 1;
     }
-    l
+    (l, true)
 }
 
 #[cfg(test)]

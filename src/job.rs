@@ -40,6 +40,8 @@ pub struct JobOptions {
     pub sampler: Option<crate::rng::Sampler>,
     /// `--light-paths`, else the request's, else `Auto`.
     pub light_paths: Option<LightPaths>,
+    /// Film › Transparent (`RenderSettings::transparent`).
+    pub transparent: Option<bool>,
 }
 
 impl JobOptions {
@@ -63,6 +65,7 @@ impl JobOptions {
             environment: self.environment.or(f.environment),
             sampler: self.sampler.or(f.sampler),
             light_paths: self.light_paths.or(f.light_paths),
+            transparent: self.transparent.or(f.transparent),
         }
     }
 }
@@ -86,6 +89,7 @@ impl From<&RenderRequest> for JobOptions {
             sampler: None,
             light_paths: r.light_paths.map(|on| if on { LightPaths::On } else { LightPaths::Off }),
             environment: r.environment.clone(),
+            transparent: r.transparent_film,
         }
     }
 }
@@ -231,6 +235,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         light_paths,
         light_tracing: true,
         strategies: Default::default(),
+        transparent: options.transparent.unwrap_or(false),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }

@@ -94,6 +94,11 @@ struct RenderOptions {
     /// World radiance R,G,B in W·sr⁻¹·m⁻² seen by rays that leave the scene [default: black].
     #[arg(long, value_delimiter = ',', num_args = 3)]
     background: Option<Vec<f32>>,
+    /// Blender's Film › Transparent: the camera does not see the World
+    /// (which still lights the scene), and the EXR's alpha is each pixel's
+    /// coverage, its colour premultiplied [default: the request's, else off].
+    #[arg(long)]
+    transparent_film: bool,
     /// World as an equirectangular environment image (HDR, EXR, PNG, JPEG),
     /// mapped as Blender's Environment Texture; replaces --background.
     #[arg(long)]
@@ -141,6 +146,7 @@ impl RenderOptions {
             bsdf: self.bsdf.as_deref().map(|b| if b == "seed" { BsdfModel::Seed } else { BsdfModel::Principled }),
             two_sided_emission: None,
             features: self.features.as_deref().map(|f| if f == "all" { FeatureMode::All } else { FeatureMode::Auto }),
+            transparent: self.transparent_film.then_some(true),
         }
     }
 }
@@ -311,7 +317,7 @@ fn render(args: RenderArgs) -> Result<()> {
     progress.finish_and_clear();
 
     let pixels = film.mean();
-    write_outputs(&args.output, args.png.as_deref(), width, height, &pixels)?;
+    write_outputs(&args.output, args.png.as_deref(), width, height, &pixels, film.alpha().as_deref())?;
 
     let mrays = stats.rays.total() as f64 / seconds / 1e6;
     glint::stderr_line!("{width}x{height}, {} spp, {seconds:.3} s, {mrays:.1} Mrays/s -> {}", film.samples, args.output.display());
@@ -388,8 +394,8 @@ fn inspect(path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn write_outputs(exr: &Path, png: Option<&Path>, width: u32, height: u32, pixels: &[glint::Vec3]) -> Result<()> {
-    output::write_exr(exr, width, height, pixels)?;
+fn write_outputs(exr: &Path, png: Option<&Path>, width: u32, height: u32, pixels: &[glint::Vec3], alpha: Option<&[f32]>) -> Result<()> {
+    output::write_exr(exr, width, height, pixels, alpha)?;
     if let Some(png) = png {
         output::write_png(png, width, height, pixels)?;
     }

@@ -33,16 +33,21 @@ fn check_size(width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
     Ok(())
 }
 
-/// Linear float RGBA EXR (alpha 1), scene-referred radiance: run-length
+/// Linear float RGBA EXR (alpha 1, or a transparent film's coverage with
+/// the colour premultiplied by it), scene-referred radiance: run-length
 /// coded 64×64 tiles (exr's default), in increasing order, so that the
 /// same pixels always make the same file (the default order is that in
 /// which the parallel compression finishes).
-pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3], alpha: Option<&[f32]>) -> Result<()> {
     use exr::prelude::*;
     check_size(width, height, pixels)?;
+    if alpha.is_some_and(|a| a.len() != pixels.len()) {
+        anyhow::bail!("{}: {} alpha values for {} pixels", path.display(), alpha.map_or(0, <[f32]>::len), pixels.len());
+    }
     let channels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
-        let p = pixels[y * width as usize + x];
-        (p.x, p.y, p.z, 1.0f32)
+        let i = y * width as usize + x;
+        let p = pixels[i];
+        (p.x, p.y, p.z, alpha.map_or(1.0, |a| a[i]))
     });
     let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
     let image = Image::from_encoded_channels((width as usize, height as usize), encoding, channels);
@@ -71,15 +76,24 @@ pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Resul
 
 /// Read back an RGBA EXR written by `write_exr` (for tests and tools).
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
+    read_exr_with_alpha(path).map(|(w, h, px, _)| (w, h, px))
+}
+
+/// `read_exr`, and the alpha channel.
+pub fn read_exr_with_alpha(path: &Path) -> Result<(u32, u32, Vec<Vec3>, Vec<f32>)> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
-        |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),
-        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b),
+        |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()], vec![0.0f32; res.width() * res.height()]),
+        |(w, px, alpha), pos, (r, g, b, a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
+            alpha[pos.y() * *w + pos.x()] = a;
+        },
     )
     .with_context(|| format!("{}: cannot read EXR", path.display()))?;
     let size = image.layer_data.size;
-    Ok((size.width() as u32, size.height() as u32, image.layer_data.channel_data.pixels.1))
+    let (_, px, alpha) = image.layer_data.channel_data.pixels;
+    Ok((size.width() as u32, size.height() as u32, px, alpha))
 }
 
 #[cfg(test)]
@@ -92,14 +106,18 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("a.exr");
         let px: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5, 1e4)).collect();
-        write_exr(&path, 3, 2, &px).unwrap();
-        let (w, h, back) = read_exr(&path).unwrap();
-        assert_eq!((w, h), (3, 2));
+        write_exr(&path, 3, 2, &px, None).unwrap();
+        let (w, h, back, alpha) = read_exr_with_alpha(&path).unwrap();
+        assert_eq!((w, h, alpha), (3, 2, vec![1.0; 6]));
         assert_eq!(back, px);
+        let coverage = [0.0, 0.25, 1.0, 0.5, 0.75, 1.0];
+        write_exr(&path, 3, 2, &px, Some(&coverage)).unwrap();
+        assert_eq!(read_exr_with_alpha(&path).unwrap().3, coverage);
+        assert!(write_exr(&path, 3, 2, &px, Some(&coverage[..5])).is_err());
         write_png(&dir.join("a.png"), 3, 2, &px).unwrap();
         let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 2, "{names:?}");
-        assert!(write_exr(&path, 0, 2, &[]).is_err());
+        assert!(write_exr(&path, 0, 2, &[], None).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -115,7 +133,7 @@ mod tests {
         let bytes: Vec<Vec<u8>> = (0..4)
             .map(|k| {
                 let path = dir.join(format!("{k}.exr"));
-                write_exr(&path, w, h, &px).unwrap();
+                write_exr(&path, w, h, &px, None).unwrap();
                 std::fs::read(&path).unwrap()
             })
             .collect();

@@ -74,6 +74,10 @@ pub struct RenderSettings {
     /// Whose light reaches the image: all of it but when taking a render
     /// apart (strategies.rs).
     pub strategies: Strategies,
+    /// Blender's Film › Transparent: the camera does not see the World,
+    /// which still lights the scene, and the film keeps each pixel's
+    /// coverage as alpha.
+    pub transparent: bool,
 }
 
 /// Whether light subpaths are traced (light_paths.rs).
@@ -92,18 +96,34 @@ pub struct Film {
     pub width: u32,
     pub height: u32,
     pub sum: Vec<Vec3>,
+    /// Sums of the samples' coverage (1 where the camera ray met a
+    /// surface, 0 where it left the scene), kept only for a transparent
+    /// film (`RenderSettings::transparent`); empty otherwise.
+    pub coverage: Vec<f32>,
     pub samples: u32,
 }
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
-        Film { width, height, sum: crate::memory::zeroed_vec3s(width as usize * height as usize), samples: 0 }
+        Film { width, height, sum: crate::memory::zeroed_vec3s(width as usize * height as usize), coverage: Vec::new(), samples: 0 }
     }
 
     /// The per-pixel mean: the Monte Carlo estimate.
     pub fn mean(&self) -> Vec<Vec3> {
-        let inv = if self.samples > 0 { 1.0 / self.samples as f32 } else { 0.0 };
+        let inv = self.inverse_samples();
         self.sum.iter().map(|s| *s * inv).collect()
+    }
+
+    /// The per-pixel alpha of a transparent film (its mean coverage; the
+    /// colour is premultiplied by it, as Cycles writes it), None for an
+    /// opaque one.
+    pub fn alpha(&self) -> Option<Vec<f32>> {
+        let inv = self.inverse_samples();
+        (!self.coverage.is_empty()).then(|| self.coverage.iter().map(|c| c * inv).collect())
+    }
+
+    fn inverse_samples(&self) -> f32 {
+        if self.samples > 0 { 1.0 / self.samples as f32 } else { 0.0 }
     }
 }
 
@@ -248,6 +268,9 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // them again (a 1-spp render spent 1% of its time on a second buffer).
     let empty = film.samples == 0;
     let mut pass_sum = if empty { std::mem::take(&mut film.sum) } else { crate::memory::zeroed_vec3s(film.sum.len()) };
+    // A transparent film's coverage, beside the sums; nothing otherwise.
+    let pixels = (w * h) as usize;
+    let mut pass_coverage = if settings.transparent { vec![0.0f32; pixels] } else { Vec::new() };
     // The bins, and the sums' pages mapped, beside the connections' MIS
     // scale and the first light subpaths, which need neither: each of
     // these has a serial part that left the other thread idle (a 1-spp
@@ -294,6 +317,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         // lock holder): the pages of a fresh film are first touched by both
         // threads, and no serial merge follows the tiles.
         let bands: Vec<Mutex<&mut [Vec3]>> = pass_sum.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
+        let coverage_bands: Vec<Mutex<&mut [f32]>> = pass_coverage.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
         let results: Vec<Option<PassStats>> = tiles
             .par_iter()
             .map_init(|| (TileRays::new(TILE), Vec::with_capacity((TILE * TILE) as usize)), |(rays, rngs), &(x0, y0)| {
@@ -303,6 +327,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
                 let mut stats = PassStats::default();
                 let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
+                let mut covered = [0.0f32; (TILE * TILE) as usize];
                 let tw = (x1 - x0) as usize;
                 // Sample index by sample index over the tile: the light
                 // vertices a sample index's connections pick from at random
@@ -333,14 +358,15 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         }
                         hits.nearest(tw as u32, y1 - y0, rays);
                     }
-                    for (i, (sum, (rng, ray))) in sums[..tile_pixels].iter_mut().zip(rngs.iter_mut()).enumerate() {
+                    for (i, ((sum, covered), (rng, ray))) in sums[..tile_pixels].iter_mut().zip(covered.iter_mut()).zip(rngs.iter_mut()).enumerate() {
                         let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
-                        let l = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first);
+                        let (l, meets_surface) = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first);
                         if sample_fits(l) {
                             *sum += l;
                         } else {
                             stats.discarded += 1;
                         }
+                        *covered += meets_surface as u32 as f32;
                     }
                 }
                 let mut band = bands[(y0 / TILE) as usize].lock().unwrap_or_else(|e| e.into_inner());
@@ -351,12 +377,22 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     }
                 }
                 drop(band);
+                if let Some(band) = coverage_bands.get((y0 / TILE) as usize) {
+                    let mut band = band.lock().unwrap_or_else(|e| e.into_inner());
+                    for (row, tile_row) in covered[..tw * (y1 - y0) as usize].chunks_exact(tw).enumerate() {
+                        let start = row * w as usize + x0 as usize;
+                        for (p, c) in band[start..start + tw].iter_mut().zip(tile_row) {
+                            *p += *c;
+                        }
+                    }
+                }
                 progress(tw as u64 * (y1 - y0) as u64 * range.len() as u64);
                 Some(stats)
             })
             .collect();
         total.phases.camera_paths += tiles_started.elapsed();
         drop(bands);
+        drop(coverage_bands);
         if cancel.load(Ordering::Relaxed) || results.iter().any(Option::is_none) {
             if empty {
                 pass_sum.fill(Vec3::ZERO);
@@ -373,6 +409,13 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     } else {
         for (f, s) in film.sum.iter_mut().zip(&pass_sum) {
             *f += *s;
+        }
+    }
+    if film.coverage.is_empty() {
+        film.coverage = pass_coverage;
+    } else {
+        for (f, c) in film.coverage.iter_mut().zip(&pass_coverage) {
+            *f += *c;
         }
     }
     film.samples += samples.len() as u32;

@@ -73,6 +73,9 @@ pub struct RenderRequest {
     pub light_sizes: Vec<LightSize>,
     /// What Blender's camera has and glTF cannot carry.
     pub lens: Option<LensRequest>,
+    /// Blender's Film › Transparent: the camera does not see the World and
+    /// the EXR's alpha is each pixel's coverage.
+    pub transparent_film: Option<bool>,
 }
 
 /// Blender's camera beyond glTF: Shift X and Y, and Depth of Field.
@@ -191,7 +194,9 @@ mod tests {
             "color": [1,1,1], "power": 10, "portal": true}]}"#;
         let r = RenderRequest::parse(ok).unwrap();
         assert_eq!((r.width, r.height, r.area_lights.len(), r.lens), (Some(64), Some(32), 2, None));
-        let lens = RenderRequest::parse(br#"{"lens": {"shift": [0.1, 0], "aperture": {"radius": 0.01, "focus_distance": 2}}}"#).unwrap().lens.unwrap();
+        let with_lens = RenderRequest::parse(br#"{"lens": {"shift": [0.1, 0], "aperture": {"radius": 0.01, "focus_distance": 2}}, "transparent_film": true}"#).unwrap();
+        assert_eq!(with_lens.transparent_film, Some(true));
+        let lens = with_lens.lens.unwrap();
         let aperture = lens.aperture.unwrap();
         assert_eq!((lens.shift, aperture.blades, aperture.rotation, aperture.ratio), ([0.1, 0.0], 0, 0.0, 1.0));
         assert!(!r.area_lights[0].portal && r.area_lights[1].portal);

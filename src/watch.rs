@@ -327,7 +327,7 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
     let mut write_error: Option<String> = None;
     let result = render_progressive(&ctx, settings, budget, &mut film, cancel, &|_| {}, &mut |p| {
         if p.finished || last_image.is_none_or(|t| t.elapsed() >= IMAGE_CADENCE) {
-            if let Err(e) = output::write_exr(&output_path, settings.width, settings.height, &p.film.mean()) {
+            if let Err(e) = output::write_exr(&output_path, settings.width, settings.height, &p.film.mean(), p.film.alpha().as_deref()) {
                 write_error = Some(format!("{e:#}"));
                 cancel.store(true, Ordering::Relaxed);
                 return;

@@ -31,13 +31,19 @@ fn renders_the_embedded_default_scene_to_exr_and_png() {
     assert!(o.status.success(), "{err}");
     assert!(err.contains("40x30, 2 spp,") && err.contains("Mrays/s"), "summary line missing: {err}");
     assert!(err.contains("discarded samples (non-finite or above 1e24): 0"), "{err}");
-    let (w, h, px) = glint::output::read_exr(&exr).unwrap();
+    let (w, h, px, alpha) = glint::output::read_exr_with_alpha(&exr).unwrap();
     assert_eq!((w, h), (40, 30));
-    assert!(px.iter().all(|p| p.is_finite()) && px.iter().any(|p| p.x > 0.0));
+    assert!(px.iter().all(|p| p.is_finite()) && px.iter().any(|p| p.x > 0.0) && alpha.iter().all(|a| *a == 1.0));
     let png_img = image::open(&png).unwrap();
     assert_eq!((png_img.width(), png_img.height()), (40, 30));
     // Only the two outputs: no temp files left behind.
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
+    // A transparent film: the box's open front lets some camera rays
+    // out, whose pixels lose alpha; the box's walls keep theirs.
+    let o = glint(&["render", "-o", exr.to_str().unwrap(), "--spp", "2", "--width", "40", "--height", "30", "--transparent-film"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let alpha = glint::output::read_exr_with_alpha(&exr).unwrap().3;
+    assert!(alpha.iter().any(|a| *a < 1.0) && alpha.iter().filter(|a| **a == 1.0).count() > alpha.len() / 2, "{alpha:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -308,7 +308,8 @@ fn mutated_sample_models_load_or_fail_cleanly() {
 /// (KHR_lights_punctual), and a render request that uses every field the
 /// add-on writes: each area light shape, a Spread, a portal, visible
 /// lamps, the three lights' sizes, an environment image or a World colour,
-/// and the camera's lens shift and aperture (with every other request).
+/// and the camera's lens shift and aperture and a transparent film (with
+/// every other request).
 fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_json::Value) {
     use serde_json::json;
     let scene = default_scene_with_lights(
@@ -338,6 +339,7 @@ fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_
     if let Some(image) = environment {
         request["environment"] = json!({"image": image, "strength": 2.0, "rotation": 0.5});
         request["lens"] = json!({"shift": [0.1, -0.05], "aperture": {"radius": 0.02, "focus_distance": 3.5, "blades": 6, "rotation": 0.3, "ratio": 1.5}});
+        request["transparent_film"] = json!(true);
     }
     (scene, request)
 }

@@ -823,3 +823,47 @@ fn light_paths_keep_the_image_through_a_shifted_aperture_with_clip_start() {
     let without = RenderSettings { light_paths: LightPaths::Off, ..with.clone() };
     same_image_less_noise(&scene, &with, &without, "light paths through an aperture");
 }
+
+/// Film › Transparent: an orthographic camera above a 1 m square of
+/// albedo 0.5 under a white World sees the square as before (0.5: the
+/// World still lights it) with alpha 1, and nothing else: colour 0, alpha
+/// 0; a pixel the square's edge halves has alpha 0.5 and colour 0.25
+/// (premultiplied, as Cycles writes it). An opaque film keeps no coverage.
+#[test]
+fn a_transparent_film_hides_the_world_from_the_camera_and_keeps_coverage() {
+    use glint::camera::Projection;
+    let mut camera = common::look_at(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO, 0.5);
+    camera.projection = Projection::Orthographic { half_height: 1.0 };
+    // The square from x = −0.5 to 0.515625 (z from −0.5 to 0.5), facing
+    // up: its right edge halves column 48.
+    let corner = |x: f32, z: f32| Vec3::new(x, 0.0, z);
+    let (a, b, c, d) = (corner(-0.5, -0.5), corner(-0.5, 0.5), corner(0.515625, 0.5), corner(0.515625, -0.5));
+    let triangles = vec![common::triangle([a, b, c], 0), common::triangle([a, c, d], 0)];
+    let mut scene = Scene::new(triangles, vec![common::diffuse("square", 0.5)], camera);
+    scene.background = Vec3::ONE;
+    let (w, h) = (64u32, 64u32);
+    let transparent = RenderSettings { transparent: true, ..settings(w, h, 16, 4, 1) };
+    let mut film = Film::new(w, h);
+    let stats = render_pass(&Context::new(&scene).0, &transparent, &mut film, 0..16, &AtomicBool::new(false), &|_| {}).unwrap();
+    let (img, alpha) = (film.mean(), film.alpha().expect("a transparent film keeps coverage"));
+    common::assert_clean(&img, &stats, "transparent film");
+    for (i, (p, a)) in img.iter().zip(&alpha).enumerate() {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let (rows, inside) = ((16..48).contains(&y), (16..48).contains(&x));
+        let (want_alpha, want_colour) = match (rows, inside, x == 48) {
+            (true, true, _) => (1.0, 0.5),
+            (true, false, true) => (0.5, 0.25),
+            _ => (0.0, 0.0),
+        };
+        // Coverage is a count of samples: the 16 Sobol points of a pixel
+        // split 8 to 8 between its halves, give or take one. The colour
+        // is the square's exact radiance under a uniform World, 0.5 a
+        // sample that meets it.
+        let tolerance = if want_alpha == 0.5 { 1.0 / 16.0 } else { 0.0 };
+        assert!((a - want_alpha).abs() <= tolerance + 1e-6, "({x}, {y}): alpha {a}, not {want_alpha}");
+        assert!((p.x - 0.5 * a).abs() < 1e-4, "({x}, {y}): {p} is not 0.5 × alpha {a} (want {want_colour})");
+    }
+    let mut opaque = Film::new(w, h);
+    render_pass(&Context::new(&scene).0, &settings(w, h, 1, 4, 1), &mut opaque, 0..1, &AtomicBool::new(false), &|_| {}).unwrap();
+    assert!(opaque.alpha().is_none() && opaque.mean()[0] == Vec3::ONE);
+}

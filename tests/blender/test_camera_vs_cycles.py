@@ -9,7 +9,7 @@ across the image's larger side, Clip Start)."""
 import bpy
 import numpy as np
 import pytest
-from helpers import add_camera, give_principled, render_seeds
+from helpers import add_camera, fair_cycles, give_principled, plain_world, read_exr, render_seeds
 
 SIZE, DISTANCE, LENS = 32, 10.0, 50.0
 PIXEL = 2 * DISTANCE * 18 / LENS / SIZE  # metres per pixel on the plane (36 mm sensor)
@@ -103,6 +103,45 @@ def test_depth_of_field_blurs_the_corner_as_in_cycles(empty_scene, tmp_path):
     tolerance = 5 * np.sqrt(2 * p * (1 - p) / (samples * seeds)) + 1e-3
     worst = np.max(np.abs(c - g) / tolerance)
     assert worst < 1, (worst, np.round(c, 3), np.round(g, 3))
+
+
+def test_transparent_film_gives_coverage_as_alpha_as_in_cycles(empty_scene, tmp_path):
+    """Film › Transparent: a grey Lambertian plane (albedo 0.5) whose
+    corner is a fraction of a pixel off the image centre, under a white
+    World that lights it but that the camera does not see. Alpha is each
+    pixel's coverage, as in `assert_corner_coverage` (Cycles within 1e-3,
+    Glint within 5 binomial σ), the colour 0.5 × alpha (premultiplied) in
+    both, within 2% where alpha is above 0.05, and 0 where it is 0."""
+    x0, y0 = 0.3 * PIXEL, 0.7 * PIXEL
+    floor = plane(empty_scene, "Plane", [(x0, y0, 0), (50, y0, 0), (50, 50, 0), (x0, 50, 0)])
+    give_principled(floor, "Grey", Base_Color=(0.5, 0.5, 0.5, 1), Specular_IOR_Level=0.0)
+    plain_world(empty_scene, (1.0, 1.0, 1.0))
+    add_camera(empty_scene, (0, 0, DISTANCE), lens=LENS)
+    empty_scene.render.resolution_x = empty_scene.render.resolution_y = SIZE
+    empty_scene.render.film_transparent = True
+    empty_scene.view_settings.view_transform = "Standard"
+    samples = 4096
+    images = {}
+    for engine in ("CYCLES", "GLINT"):
+        if engine == "CYCLES":
+            fair_cycles(empty_scene, samples, 1, 1)
+        else:
+            empty_scene.render.engine = "GLINT"
+            empty_scene.glint.samples, empty_scene.glint.max_bounces, empty_scene.glint.seed = samples, 1, 1
+        bpy.ops.render.render()
+        path = tmp_path / f"{engine}.exr"
+        bpy.data.images["Render Result"].save_render(str(path))
+        images[engine] = read_exr(path).astype(np.float64)
+    h = SIZE // 2
+    expected = {(h + 1, h): 0.7, (h, h + 1): 0.3, (h, h): 0.21, (h - 1, h): 0.0, (h + 1, h - 1): 0.0, (h + 1, h + 1): 1.0, (0, 0): 0.0}
+    for engine, img in images.items():
+        alpha, colour = img[..., 3], img[..., 0]
+        for (row, col), p in expected.items():
+            tolerance = 1e-3 if engine == "CYCLES" else 5 * np.sqrt(p * (1 - p) / samples) + 1e-4
+            assert abs(alpha[row, col] - p) < tolerance, (engine, row, col, alpha[row, col], p)
+        seen = alpha > 0.05
+        assert np.all(np.abs(colour[seen] / alpha[seen] - 0.5) < 0.01), (engine, colour[seen] / alpha[seen])
+        assert np.all(img[alpha == 0][..., :3] == 0), engine
 
 
 def plane(scene, name, corners):
