@@ -60,7 +60,7 @@ use crate::light_paths::{carries_light_paths, ConnectionVertex};
 pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights, Picked};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
-use crate::punctual::PunctualLight;
+use crate::punctual::{PunctualKind, PunctualLight};
 use crate::material::Surface;
 use crate::render::{LightPaths, RenderSettings};
 use crate::rng::Rng;
@@ -785,10 +785,13 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
     f * inc.irradiance * (weight * wi_local.z.abs() / probability)
 }
 
-/// The sized point, spot and sun lights a ray from `o` sees before
-/// `t_max`; a camera ray only those the camera sees (Blender hides lights
-/// from it by default).
-fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previous, mis: bool) -> Vec3 {
+/// The sized point, spot and sun lights a ray from `o` sees: a sun if it
+/// leaves the scene (`hit_t` None; past a camera's Clip End too, as the
+/// World is seen there), the others between `t_min` and the first surface
+/// or `reach` (a camera ray's Clip Start and End); a camera ray only those
+/// the camera sees (Blender hides lights from it by default).
+#[allow(clippy::too_many_arguments)]
+fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min: f32, reach: f32, from: &Previous, mis: bool) -> Vec3 {
     if from.depth > 0 && !mis {
         return Vec3::ZERO;
     }
@@ -798,7 +801,12 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, t_max: f32, from: &Previou
         if from.depth == 0 && !light.camera_sees {
             continue;
         }
-        if let Some(seen) = light.seen(o, d, t_max) {
+        let t_max = match (light.kind, hit_t) {
+            (_, Some(t)) => t,
+            (PunctualKind::Sun, None) => f32::INFINITY,
+            (_, None) => reach,
+        };
+        if let Some(seen) = light.seen(o, d, t_min, t_max) {
             l += seen.radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf);
         }
     }
@@ -1047,10 +1055,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
-            // A ray that hits nothing before Clip End has left the scene
-            // (it sees the World): a sun's disk too. (A sized point or spot
-            // the camera sees is not clipped.)
-            l += beta * sized_lights_seen(ctx, o, d, hit.map_or(f32::INFINITY, |h| h.t), &from, settings.mis);
+            l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, settings.mis);
         }
         let Some(hit) = hit else {
             // Film › Transparent: the camera does not see the World (it

@@ -155,11 +155,12 @@ impl PunctualLight {
         }
     }
 
-    /// The sized light as a ray from `o` along unit `d` sees it before
-    /// `t_max` (infinite: the ray left the scene, the only way to see the
-    /// sun), with the density `incident` gives that direction from `o`.
-    /// None for a punctual light, which no ray can hit.
-    pub fn seen(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<Seen> {
+    /// The sized light as a ray from `o` along unit `d` sees it between
+    /// `t_min` (a camera ray's Clip Start) and `t_max` (infinite: the ray
+    /// left the scene, the only way to see the sun), with the density
+    /// `incident` gives that direction from `o`. None for a punctual
+    /// light, which no ray can hit.
+    pub fn seen(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<Seen> {
         if !(self.size > 0.0) {
             return None;
         }
@@ -187,7 +188,7 @@ impl PunctualLight {
                 return None;
             }
             let t = along - (r * r - miss2).sqrt();
-            if !(t > 0.0 && t < t_max) {
+            if !(t > 0.0 && t >= t_min && t < t_max) {
                 return None;
             }
             cone_pdf(one_minus_cos((r / d2.sqrt()).min(1.0).asin()))
@@ -200,7 +201,7 @@ impl PunctualLight {
                 return None;
             }
             let t = dist / cos_light;
-            if !(t < t_max) || (o + t * d - self.position).length_squared() > r * r {
+            if !(t >= t_min && t < t_max) || (o + t * d - self.position).length_squared() > r * r {
                 return None;
             }
             disk_pdf(t * t, r, cos_light)
@@ -309,7 +310,7 @@ mod tests {
         let e = mean(&sun, Vec3::ZERO, Vec3::Y);
         assert!((e - i as f64).abs() < 2e-3 * e, "sun: {e}");
         // Radius 0 is the punctual light, whatever u, and no ray sees it.
-        assert!(PunctualLight { size: 0.0, ..disk.clone() }.seen(Vec3::ZERO, Vec3::Y, f32::INFINITY).is_none());
+        assert!(PunctualLight { size: 0.0, ..disk.clone() }.seen(Vec3::ZERO, Vec3::Y, 0.0, f32::INFINITY).is_none());
         let point = PunctualLight { size: 0.0, ..disk };
         assert_eq!(point.incident(Vec3::ZERO, Vec2::new(0.3, 0.9)).unwrap().irradiance, Vec3::splat(i / (h * h)));
     }
@@ -335,13 +336,13 @@ mod tests {
             for o in [Vec3::ZERO, Vec3::new(1.0, -0.5, 2.0)] {
                 for _ in 0..2000 {
                     let Some(inc) = light.incident(o, rng.next_2d()) else { continue };
-                    let seen = light.seen(o, inc.wi, f32::INFINITY).unwrap_or_else(|| panic!("light {k}: a sampled direction misses"));
+                    let seen = light.seen(o, inc.wi, 0.0, f32::INFINITY).unwrap_or_else(|| panic!("light {k}: a sampled direction misses"));
                     assert!((seen.pdf / inc.pdf - 1.0).abs() < 2e-3, "light {k}: pdf {} vs {}", seen.pdf, inc.pdf);
                     let estimate = seen.radiance / seen.pdf;
                     assert!((estimate - inc.irradiance).abs().max_element() <= 2e-3 * inc.irradiance.max_element(), "light {k}: {estimate} vs {}", inc.irradiance);
                     // Something in front of the light hides it, except the
                     // sun, which only a ray leaving the scene sees.
-                    assert!(light.seen(o, inc.wi, 0.5 * inc.distance.min(1.0)).is_none());
+                    assert!(light.seen(o, inc.wi, 0.0, 0.5 * inc.distance.min(1.0)).is_none());
                 }
                 // ∫ pdf dω by directions drawn uniformly in a cone wider
                 // than the light (half again its angular radius).
@@ -354,7 +355,7 @@ mod tests {
                 let mut sum = 0.0f64;
                 for _ in 0..n {
                     let (d, one_minus_cos) = cone_sample(axis, half_angle, rng.next_2d());
-                    if let Some(seen) = light.seen(o, d, f32::INFINITY).filter(|s| s.radiance != Vec3::ZERO) {
+                    if let Some(seen) = light.seen(o, d, 0.0, f32::INFINITY).filter(|s| s.radiance != Vec3::ZERO) {
                         sum += (seen.pdf * 2.0 * PI * one_minus_cos) as f64;
                     }
                 }

@@ -137,3 +137,21 @@ fn a_camera_with_a_clip_end_sees_the_sun_it_may_see() {
         assert!(img.iter().all(|p| (p.x - expected).abs() < 1e-4 * expected), "clip {clip:?}: {:?} vs {expected}", img[4]);
     }
 }
+
+/// A sized point light the camera may see is an object between the clip
+/// planes, as in Cycles: 2 m in front of the camera it is seen with Clip
+/// Start 0.1 and End 100, not with Start 2.5 (nearer than that) nor with
+/// End 1.2 (its sphere starts at 1.5 m).
+#[test]
+fn a_sized_light_the_camera_sees_is_clipped_as_an_object() {
+    let bulb = PunctualLight { position: Vec3::new(0.0, 2.0, 0.0), camera_sees: true, ..lamp(true) };
+    let mut scene = Scene::new(vec![], vec![], look_at(Vec3::ZERO, Vec3::Y, 0.01));
+    scene.punctual.push(bulb);
+    let radiance = 50.0 / (PI * 0.25);
+    for (clip, seen) in [([0.1, 100.0], true), ([2.5, 100.0], false), ([0.1, 1.2], false)] {
+        scene.camera.clip = clip;
+        let centre = render(&scene, &settings(3, 3, 1, 2, 1), 1).0[4];
+        let want = if seen { radiance } else { 0.0 };
+        assert!((centre.x - want).abs() < 1e-4 * radiance, "clip {clip:?}: {centre} vs {want}");
+    }
+}
