@@ -175,6 +175,7 @@ impl Camera {
         self.aperture = aperture.filter(|a| a.radius > 0.0);
         Ok(())
     }
+
     /// `--camera auto`: a camera that frames a bounding box, for scenes
     /// without one. It looks at the box's centre from the front (+Z, glTF's
     /// forward-facing side), a little above and to the right, far enough
@@ -295,10 +296,7 @@ impl Lens<'_> {
         let c = self.camera;
         let [near, far] = c.clip;
         let s = Vec2::new((2.0 * pixel.x / self.width - 1.0) * self.half_height * self.aspect, (1.0 - 2.0 * pixel.y / self.height) * self.half_height) + self.shift;
-        let lens = c.aperture.map(|a| {
-            let l = a.sample(aperture_u);
-            (c.right * l.x + c.up * l.y, a.focus_distance)
-        });
+        let lens = self.aperture_point(aperture_u);
         if self.orthographic {
             let start = c.position + c.right * s.x + c.up * s.y;
             return match lens {
@@ -317,6 +315,28 @@ impl Lens<'_> {
             Some((l, focus)) => (c.position + l, (pinhole * focus - l).normalize()),
         };
         CameraRay { origin, dir, tmin: near * stretch, tmax: far * stretch }
+    }
+
+    /// The point of the aperture drawn from `aperture_u`, as an offset from
+    /// the camera's position, and the plane of focus's distance; None
+    /// without an aperture.
+    fn aperture_point(&self, aperture_u: Vec2) -> Option<(Vec3, f32)> {
+        let c = self.camera;
+        c.aperture.map(|a| {
+            let l = a.sample(aperture_u);
+            (c.right * l.x + c.up * l.y, a.focus_distance)
+        })
+    }
+
+    /// The row-major index of the pixel at image point (`x`, `y`), as
+    /// `ray` takes them; None outside the image.
+    fn pixel_index(&self, x: f32, y: f32) -> Option<u32> {
+        if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
+            return None;
+        }
+        // Rounding can put x or y on the far edge.
+        let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
+        Some(py * self.image_width + px)
     }
 
     /// Whether rays leave from points of an aperture, which draws two more
@@ -410,21 +430,17 @@ impl Lens<'_> {
             let v = p - c.position;
             let depth = v.dot(c.forward);
             let s = (Vec2::new(v.dot(c.right), v.dot(c.up)) - self.shift) / self.half_height;
-            let (x, y) = ((s.x / self.aspect + 1.0) * 0.5 * self.width, (1.0 - s.y) * 0.5 * self.height);
+            let pixel = self.pixel_index((s.x / self.aspect + 1.0) * 0.5 * self.width, (1.0 - s.y) * 0.5 * self.height)?;
             let [near, far] = c.clip;
-            if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height && depth > near && depth <= far) {
+            if !(depth > near && depth <= far) {
                 return None;
             }
-            let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
             let density = self.density(c.forward);
-            return Some(Seen { pixel: py * self.image_width + px, lens_point: p - c.forward * depth, to_camera: -c.forward, distance: depth, skipped: near, density });
+            return Some(Seen { pixel, lens_point: p - c.forward * depth, to_camera: -c.forward, distance: depth, skipped: near, density });
         }
-        let (lens_point, focus) = match c.aperture {
+        let (lens_point, focus) = match self.aperture_point(aperture_u) {
             None => (c.position, None),
-            Some(a) => {
-                let l = a.sample(aperture_u);
-                (c.position + c.right * l.x + c.up * l.y, Some(a.focus_distance))
-            }
+            Some((l, focus)) => (c.position + l, Some(focus)),
         };
         let v = p - lens_point;
         let distance = v.length();
@@ -441,9 +457,7 @@ impl Lens<'_> {
             Some(_) => return None,
         };
         let Vec2 { x, y } = self.image_point(pinhole)?;
-        if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
-            return None;
-        }
+        let pixel = self.pixel_index(x, y)?;
         // The depths between the clip planes, as `ray` measures them.
         let stretch = pinhole.length() / pinhole.dot(c.forward);
         let [near, far] = c.clip;
@@ -451,9 +465,7 @@ impl Lens<'_> {
         if !(distance > skipped && distance <= reach) {
             return None;
         }
-        // Rounding can put x or y on the far edge.
-        let (px, py) = ((x as u32).min(self.image_width - 1), (y as u32).min(self.height as u32 - 1));
-        Some(Seen { pixel: py * self.image_width + px, lens_point, to_camera: -dir, distance, skipped, density: self.density(dir) })
+        Some(Seen { pixel, lens_point, to_camera: -dir, distance, skipped, density: self.density(dir) })
     }
 }
 

@@ -185,16 +185,11 @@ impl<'a> Context<'a> {
     /// traversal meets it.
     #[inline]
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
-        self.intersect_within(o, d, f32::INFINITY, kind, rng)
+        self.intersect_between(o, d, 0.0, f32::INFINITY, kind, rng)
     }
 
     /// `intersect`, from `tmin` to `tmax` (a camera ray's Clip Start and
     /// End).
-    #[inline]
-    pub(crate) fn intersect_within(&self, o: Vec3, d: Vec3, tmax: f32, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
-        self.intersect_between(o, d, 0.0, tmax, kind, rng)
-    }
-
     #[inline]
     pub(crate) fn intersect_between(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, kind: RayKind, rng: &mut Rng) -> Option<Hit> {
         if let Some(log) = &self.ray_log {
@@ -1037,6 +1032,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             _ => ctx.intersect(o, d, RayKind::Bounce, rng),
         };
         // A lamp in front of the surface adds its light; the ray goes on.
+        // Lamps before Clip Start are tested for only where there is one:
+        // the test on every lamp a ray meets cost the hall 0.6% of its
+        // instructions.
         let lamp = if !LAMPS {
             None
         } else if skip > 0.0 {

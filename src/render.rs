@@ -369,22 +369,10 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         *covered += meets_surface as u32 as f32;
                     }
                 }
-                let mut band = bands[(y0 / TILE) as usize].lock().unwrap_or_else(|e| e.into_inner());
-                for (row, tile_row) in sums[..tw * (y1 - y0) as usize].chunks_exact(tw).enumerate() {
-                    let start = row * w as usize + x0 as usize;
-                    for (p, s) in band[start..start + tw].iter_mut().zip(tile_row) {
-                        *p += *s;
-                    }
-                }
-                drop(band);
-                if let Some(band) = coverage_bands.get((y0 / TILE) as usize) {
-                    let mut band = band.lock().unwrap_or_else(|e| e.into_inner());
-                    for (row, tile_row) in covered[..tw * (y1 - y0) as usize].chunks_exact(tw).enumerate() {
-                        let start = row * w as usize + x0 as usize;
-                        for (p, c) in band[start..start + tw].iter_mut().zip(tile_row) {
-                            *p += *c;
-                        }
-                    }
+                let band = (y0 / TILE) as usize;
+                add_tile(&bands[band], &sums[..tile_pixels], tw, x0, w);
+                if let Some(band) = coverage_bands.get(band) {
+                    add_tile(band, &covered[..tile_pixels], tw, x0, w);
                 }
                 progress(tw as u64 * (y1 - y0) as u64 * range.len() as u64);
                 Some(stats)
@@ -404,20 +392,34 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
             total.add(&stats);
         }
     }
-    if empty {
-        film.sum = pass_sum;
-    } else {
-        for (f, s) in film.sum.iter_mut().zip(&pass_sum) {
-            *f += *s;
-        }
-    }
-    if film.coverage.is_empty() {
-        film.coverage = pass_coverage;
-    } else {
-        for (f, c) in film.coverage.iter_mut().zip(&pass_coverage) {
-            *f += *c;
-        }
-    }
+    // An empty film's sums were taken as the pass's own (empty) and come
+    // back whole; so does a first pass's coverage.
+    add_pass(&mut film.sum, pass_sum);
+    add_pass(&mut film.coverage, pass_coverage);
     film.samples += samples.len() as u32;
     Ok(total)
+}
+
+/// Add a tile's per-pixel sums (rows of `tw`, its left edge at `x0`) into
+/// its band of an image `w` wide, under the band's lock.
+fn add_tile<T: Copy + std::ops::AddAssign>(band: &Mutex<&mut [T]>, tile: &[T], tw: usize, x0: u32, w: u32) {
+    let mut band = band.lock().unwrap_or_else(|e| e.into_inner());
+    for (row, tile_row) in tile.chunks_exact(tw).enumerate() {
+        let start = row * w as usize + x0 as usize;
+        for (p, s) in band[start..start + tw].iter_mut().zip(tile_row) {
+            *p += *s;
+        }
+    }
+}
+
+/// Add a pass's per-pixel sums into the film's, or make them the film's
+/// where it has none.
+fn add_pass<T: Copy + std::ops::AddAssign>(film: &mut Vec<T>, pass: Vec<T>) {
+    if film.is_empty() {
+        *film = pass;
+    } else {
+        for (f, p) in film.iter_mut().zip(&pass) {
+            *f += *p;
+        }
+    }
 }
