@@ -14,6 +14,8 @@
 //!   ray is tested against the lamp BVH;
 //! * glass (KHR_materials_transmission): without it the BSDF has no
 //!   transmission lobe to weigh (bsdf/transmission.rs);
+//! * a clear coat (KHR_materials_clearcoat): without it no coat layer is
+//!   weighed (bsdf/coat.rs); the seed model has none;
 //! * no light at all: no light sampling, no random numbers drawn for it.
 //!
 //! `FeatureMode::All` forces the general kernel (every part on, the BSDF
@@ -79,6 +81,8 @@ pub struct Features {
     pub alpha: usize,
     /// Materials with some glass (KHR_materials_transmission).
     pub transmission: usize,
+    /// Materials with a clear coat (KHR_materials_clearcoat).
+    pub coat: usize,
 }
 
 impl Features {
@@ -120,6 +124,7 @@ impl Features {
             }
             f.alpha += m.has_alpha() as usize;
             f.transmission += m.is_transmissive() as usize;
+            f.coat += m.is_coated() as usize;
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
@@ -174,6 +179,9 @@ impl fmt::Display for Features {
         if self.transmission > 0 {
             on.push(format!("glass={}", self.transmission));
         }
+        if self.coat > 0 {
+            on.push(format!("coat={}", self.coat));
+        }
         if on.is_empty() {
             on.push("nothing".into());
         }
@@ -201,6 +209,8 @@ pub struct Kernel {
     pub lamps: bool,
     /// The BSDF mixes in glass.
     pub glass: bool,
+    /// A clear coat lies over the BSDF (Principled only).
+    pub coat: bool,
 }
 
 impl Kernel {
@@ -209,15 +219,19 @@ impl Kernel {
             BsdfModel::Principled => KernelBsdf::Principled,
             BsdfModel::Seed => KernelBsdf::Seed,
         };
+        // Only the Principled model has a coat.
+        let principled = model == BsdfModel::Principled;
         if mode == FeatureMode::All {
-            return Kernel { bsdf: general, area: true, punctual: true, lamps: true, glass: true };
+            return Kernel { bsdf: general, area: true, punctual: true, lamps: true, glass: true, coat: principled };
         }
-        // Both models are exactly Lambert for a non-metal with specular 0.
-        let bsdf = if features.ggx { general } else { KernelBsdf::Lambert };
+        let coat = principled && features.coat > 0;
+        // Both models are exactly Lambert for a non-metal with specular 0
+        // (and no coat).
+        let bsdf = if features.ggx || coat { general } else { KernelBsdf::Lambert };
         // The light list decides, not the materials: an emissive triangle
         // of zero power is not sampled and adds nothing.
         let area = !lights.triangles.is_empty();
-        Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0, glass: features.transmission > 0 }
+        Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0, glass: features.transmission > 0, coat }
     }
 }
 
@@ -231,6 +245,9 @@ impl fmt::Display for Kernel {
         let mut parts = vec![bsdf];
         if self.glass {
             parts.push("glass");
+        }
+        if self.coat {
+            parts.push("coat");
         }
         if self.area {
             parts.push("emitters");
@@ -275,10 +292,10 @@ mod tests {
         assert_eq!((f.emitters, f.emitter_triangles), (1, 1));
         let lights = Lights::new(&s);
         let k = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::Auto);
-        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: false, glass: false });
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: false, glass: false, coat: false });
         assert_eq!(f.to_string(), "diffuse, emitters=1 (1 tris), one-sided emission");
         let all = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::All);
-        assert_eq!(all, Kernel { bsdf: KernelBsdf::Principled, area: true, punctual: true, lamps: true, glass: true });
+        assert_eq!(all, Kernel { bsdf: KernelBsdf::Principled, area: true, punctual: true, lamps: true, glass: true, coat: true });
     }
 
     #[test]
@@ -290,7 +307,7 @@ mod tests {
         assert!(!f.ggx && !f.metallic, "{f:?}");
         assert_eq!((f.lamps, f.emitters), (1, 0));
         let k = Kernel::choose(&f, &Lights::new(&s), BsdfModel::Seed, FeatureMode::Auto);
-        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: true, glass: false });
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: true, glass: false, coat: false });
     }
 
     #[test]

@@ -23,6 +23,11 @@ pub struct Surface {
     /// The relative IOR the ray meets here: the material's IOR entering a
     /// front face, its inverse leaving through a back face (SurfaceHit).
     pub ior: f32,
+    /// KHR_materials_clearcoat (Blender's Coat Weight and Roughness): a
+    /// dielectric layer over everything else (bsdf/coat.rs); weight 0
+    /// without it.
+    pub coat: f32,
+    pub coat_roughness: f32,
 }
 
 impl Surface {
@@ -110,6 +115,10 @@ pub struct Material {
     pub transmission: f32,
     /// KHR_materials_ior (1.5 without it, Blender's default too).
     pub ior: f32,
+    /// KHR_materials_clearcoat's clearcoatFactor and
+    /// clearcoatRoughnessFactor (0 and 0 without it).
+    pub coat: f32,
+    pub coat_roughness: f32,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,
     /// baseColorFactor's alpha.
@@ -134,6 +143,8 @@ impl Default for Material {
             multiscatter: true,
             transmission: 0.0,
             ior: 1.5,
+            coat: 0.0,
+            coat_roughness: 0.0,
             textures: None,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
@@ -159,6 +170,8 @@ impl Material {
             multiscatter: self.multiscatter,
             transmission: self.transmission,
             ior: self.ior,
+            coat: self.coat,
+            coat_roughness: self.coat_roughness,
         }
     }
 
@@ -181,6 +194,11 @@ impl Material {
             _ => self.roughness,
         };
         smallest_roughness < FOCUSING_ROUGHNESS
+    }
+
+    /// Whether a clear coat lies over it.
+    pub fn is_coated(&self) -> bool {
+        self.coat > 0.0
     }
 
     /// Whether some of it is glass.

@@ -3,7 +3,7 @@
 //! sample index), so an image is the same for any thread count, and for any
 //! split of its samples into passes up to the rounding of the sums.
 
-use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf, WithGlass};
+use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf, WithCoat, WithGlass};
 use crate::camera_hits::{CameraHits, FirstHit, TileRays};
 use crate::features::{FeatureMode, KernelBsdf};
 use crate::integrator::{prepare_materials, radiance, Context, LightVertices, RayCounts};
@@ -218,13 +218,16 @@ pub fn render_pass(
             }
         };
     }
-    // Glass is never Lambert: Kernel::choose picks a model for it.
-    match (kernel.bsdf, kernel.glass) {
-        (KernelBsdf::Lambert, _) => lights!(LambertBsdf),
-        (KernelBsdf::Seed, false) => lights!(SeedBsdf),
-        (KernelBsdf::Seed, true) => lights!(WithGlass<SeedBsdf>),
-        (KernelBsdf::Principled, false) => lights!(PrincipledBsdf),
-        (KernelBsdf::Principled, true) => lights!(WithGlass<PrincipledBsdf>),
+    // Glass and coats are never Lambert: Kernel::choose picks a model for
+    // them. A coated scene's one kernel mixes in glass too, which costs a
+    // surface without any one branch: one kernel fewer to compile.
+    match (kernel.bsdf, kernel.glass, kernel.coat) {
+        (KernelBsdf::Lambert, _, _) => lights!(LambertBsdf),
+        (KernelBsdf::Seed, false, _) => lights!(SeedBsdf),
+        (KernelBsdf::Seed, true, _) => lights!(WithGlass<SeedBsdf>),
+        (KernelBsdf::Principled, false, false) => lights!(PrincipledBsdf),
+        (KernelBsdf::Principled, true, false) => lights!(WithGlass<PrincipledBsdf>),
+        (KernelBsdf::Principled, _, true) => lights!(WithCoat<WithGlass<PrincipledBsdf>>),
     }
 }
 

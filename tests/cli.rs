@@ -82,7 +82,7 @@ fn the_pgo_training_renders_every_kernel() {
     let (out, err) = (String::from_utf8_lossy(&o.stdout), stderr(&o));
     assert!(o.status.success(), "{out}{err}");
     let trained: std::collections::BTreeSet<&str> = out.lines().filter_map(|l| l.strip_prefix("trained kernel: ")).collect();
-    let bsdfs = ["lambert", "seed", "seed + glass", "principled", "principled + glass"];
+    let bsdfs = ["lambert", "seed", "seed + glass", "principled", "principled + glass", "principled + coat"];
     let lights = ["no local lights", "punctual", "emitters", "emitters + lamps", "emitters + punctual", "emitters + lamps + punctual"];
     let every: std::collections::BTreeSet<String> = bsdfs.iter().flat_map(|b| lights.iter().map(move |l| format!("{b} + {l}"))).collect();
     assert_eq!(trained, every.iter().map(String::as_str).collect(), "{out}");
@@ -230,7 +230,7 @@ fn the_features_line_and_the_general_kernel() {
     let dir = temp_dir("features");
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box-diffuse.gltf");
     let mut images = Vec::new();
-    for (mode, kernel) in [("auto", "kernel: lambert + emitters"), ("all", "kernel: principled + glass + emitters + lamps + punctual")] {
+    for (mode, kernel) in [("auto", "kernel: lambert + emitters"), ("all", "kernel: principled + glass + coat + emitters + lamps + punctual")] {
         let exr = dir.join(format!("{mode}.exr"));
         let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "3", "--width", "24", "--height", "24", "--features", mode, "--light-paths", "off"]);
         let err = stderr(&o);

@@ -1,6 +1,7 @@
 """The training renders of a profile-guided build (tests/pgo-build): every
-kernel Glint can choose (src/render.rs: five BSDFs — Lambert, the seed's,
-the seed's with glass, Principled, Principled with glass — times six sets
+kernel Glint can choose (src/render.rs: six BSDFs — Lambert, the seed's,
+the seed's with glass, Principled, Principled with glass, Principled
+with a coat (and glass, where there is some) — times six sets
 of light parts), each on a small variant of the project's own Cornell
 boxes, at 1 spp (independent numbers) and 4 (Sobol), with light subpaths
 as `auto` picks them; then the boxes and the Khronos samples as a user
@@ -32,19 +33,20 @@ LIGHTS = {
     "emitters + punctual": dict(emitter=True, point=True, lamps=False),
     "emitters + lamps + punctual": dict(emitter=True, point=True, lamps=True),
 }
-# (kernel name, scene, --bsdf, glass)
+# (kernel name, scene, --bsdf, glass, coat)
 BSDFS = [
-    ("lambert", "cornell-box-diffuse.gltf", "principled", False),
-    ("seed", "cornell-box.gltf", "seed", False),
-    ("seed + glass", "cornell-box.gltf", "seed", True),
-    ("principled", "cornell-box.gltf", "principled", False),
-    ("principled + glass", "cornell-box.gltf", "principled", True),
+    ("lambert", "cornell-box-diffuse.gltf", "principled", False, False),
+    ("seed", "cornell-box.gltf", "seed", False, False),
+    ("seed + glass", "cornell-box.gltf", "seed", True, False),
+    ("principled", "cornell-box.gltf", "principled", False, False),
+    ("principled + glass", "cornell-box.gltf", "principled", True, False),
+    ("principled + coat", "cornell-box.gltf", "principled", False, True),
 ]
 
 
-def variant(scene, emitter, point, glass):
+def variant(scene, emitter, point, glass, coat=False):
     """The box without its emitter, with a point light, with its sphere
-    made of glass, as asked."""
+    made of glass, with a clear coat on its white walls, as asked."""
     gltf = copy.deepcopy(scene)
     used = set(gltf.get("extensionsUsed", []))
     if not emitter:
@@ -61,6 +63,10 @@ def variant(scene, emitter, point, glass):
         sphere = gltf["materials"][-1]
         sphere["pbrMetallicRoughness"] = {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0, "roughnessFactor": 0.1}
         sphere.setdefault("extensions", {})["KHR_materials_transmission"] = {"transmissionFactor": 1}
+    if coat:
+        used.add("KHR_materials_clearcoat")
+        floor = gltf["materials"][0]
+        floor.setdefault("extensions", {})["KHR_materials_clearcoat"] = {"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.05}
     gltf["extensionsUsed"] = sorted(used)
     return gltf
 
@@ -105,13 +111,13 @@ def main():
     shared = sys.argv[3] if len(sys.argv) > 3 else os.path.join(ROOT, "..", "shared")
     os.makedirs(work, exist_ok=True)
     out = os.path.join(work, "out.exr")
-    for bsdf_name, scene_file, model, glass in BSDFS:
+    for bsdf_name, scene_file, model, glass, coat in BSDFS:
         scene = json.load(open(os.path.join(ROOT, "scenes", scene_file)))
         for lights_name, parts in LIGHTS.items():
             name = f"{bsdf_name} + {lights_name}"
             path = os.path.join(work, name.replace(" + ", "-").replace(" ", "_"))
             with open(path + ".gltf", "w") as f:
-                json.dump(variant(scene, parts["emitter"], parts["point"], glass), f)
+                json.dump(variant(scene, parts["emitter"], parts["point"], glass, coat), f)
             with open(path + ".json", "w") as f:
                 json.dump(request(parts["lamps"], portal=lights_name == "no local lights"), f)
             for spp in ("1", "4"):

@@ -195,6 +195,27 @@ pub fn u2(rng: &mut Rng) -> Vec2 {
     rng.next_2d()
 }
 
+/// `chi2_test` of a BSDF's sampler at `wo` against its own pdf.
+pub fn bsdf_chi2<B: crate::bsdf::Bsdf>(bsdf: &B, wo: Vec3, samples: usize, seed: u64) -> Chi2Result {
+    chi2_test(samples, seed, |rng| {
+        let ul = rng.next_f32();
+        bsdf.sample(wo, ul, u2(rng)).map(|s| s.wi)
+    }, |wi| bsdf.pdf(wo, wi))
+}
+
+/// E[f cos / pdf] over a BSDF's sampler: its directional albedo at `wo`.
+pub fn albedo_of<B: crate::bsdf::Bsdf>(bsdf: &B, wo: Vec3, n: usize, seed: u64) -> Vec3 {
+    let mut rng = Rng::new(seed, 5);
+    let mut sum = Vec3::ZERO;
+    for _ in 0..n {
+        let ul = rng.next_f32();
+        if let Some(s) = bsdf.sample(wo, ul, rng.next_2d()) {
+            sum += s.weight;
+        }
+    }
+    sum / n as f32
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -324,6 +324,11 @@ pub trait Bsdf: Sized {
     fn transmits(&self) -> bool {
         false
     }
+    /// About how much of the light from wo it reflects or transmits, for a
+    /// layer above it to weigh its samples against (coat.rs).
+    fn reflectance(&self) -> f32 {
+        1.0
+    }
 }
 
 /// Which BSDF model renders the scene.
@@ -341,9 +346,10 @@ pub enum BsdfModel {
 /// The trait over a model's inherent methods; `evaluate` names one that
 /// computes f and the pdf together (else the trait's default pairs them),
 /// `prepared` the type its inherent `prepare`/`at` split `new` into (else
-/// the surface itself is what is prepared).
+/// the surface itself is what is prepared), `reflectance` the method that
+/// estimates its albedo (else the trait's 1).
 macro_rules! impl_bsdf {
-    ($t:ty $(, $evaluate:ident)? $(; prepared $p:ty)?) => {
+    ($t:ty $(, $evaluate:ident)? $(; prepared $p:ty)? $(; reflectance $reflectance:ident)?) => {
         impl Bsdf for $t {
             impl_bsdf!(@prepare $t $(, $p)?);
             fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
@@ -360,6 +366,11 @@ macro_rules! impl_bsdf {
             fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
                 <$t>::sample(self, wo, u_lobe, u)
             }
+            $(
+                fn reflectance(&self) -> f32 {
+                    <$t>::$reflectance(self)
+                }
+            )?
         }
     };
     (@prepare $t:ty) => {
@@ -386,15 +397,17 @@ macro_rules! impl_bsdf {
 }
 impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
-impl_bsdf!(PrincipledBsdf, evaluate; prepared principled::PrincipledLobes);
+impl_bsdf!(PrincipledBsdf, evaluate; prepared principled::PrincipledLobes; reflectance reflectance);
 
 pub mod baked;
+pub mod coat;
 pub mod dielectric;
 pub mod energy;
 pub mod microfacet;
 pub mod principled;
 pub mod transmission;
 pub use principled::PrincipledBsdf;
+pub use coat::WithCoat;
 pub use transmission::WithGlass;
 
 #[cfg(test)]

@@ -46,6 +46,8 @@ pub struct PrincipledBsdf {
     diffuse_weight: f32,
     /// Probability of sampling the glossy lobes (else the diffuse one).
     pub glossy_probability: f32,
+    /// The lobes' expected reflectance at wo (their sampling weights).
+    reflectance: f32,
 }
 
 /// What of a Principled BSDF depends on the surface alone, not on wo:
@@ -129,7 +131,7 @@ impl PrincipledBsdf {
         let mu = wo.z.clamp(0.0, 1.0);
         if m.pure_lambert {
             // No glossy lobe, nothing to look up.
-            return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0 };
+            return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0, reflectance: m.base_luminance };
         }
         // A mirror loses nothing to single scattering and its layer albedo
         // is the Fresnel reflectance itself.
@@ -164,7 +166,12 @@ impl PrincipledBsdf {
         if w_glossy > 0.0 && w_diffuse > 0.0 {
             glossy_probability = glossy_probability.max(SPEC_MIN_SHARE * (1.0 - roughness) * (1.0 - roughness));
         }
-        PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal, s_dielectric, diffuse_weight, glossy_probability }
+        PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal, s_dielectric, diffuse_weight, glossy_probability, reflectance: w_glossy + w_diffuse }
+    }
+
+    /// Expected reflectance at wo: what a coat above weighs it by.
+    pub fn reflectance(&self) -> f32 {
+        self.reflectance
     }
 
     /// Fresnel of the glossy lobes, summed with their weights and scales.

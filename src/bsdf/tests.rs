@@ -1,7 +1,7 @@
 //! Sampling-against-pdf, normalisation, finiteness, energy and reciprocity
 //! tests of every lobe and of the seed material.
 
-use super::chi2::{chi2_test, dir_at, u2};
+use super::chi2::{albedo_of, chi2_test, dir_at, u2};
 use super::*;
 use super::microfacet;
 use crate::material::{Material, Surface};
@@ -108,18 +108,6 @@ fn samples_are_finite_and_consistent_everywhere() {
 }
 
 
-/// E[f cos / pdf] over the sampler: the directional albedo.
-fn albedo_of<B: Bsdf>(bsdf: &B, wo: Vec3, n: usize, seed: u64) -> Vec3 {
-    let mut rng = Rng::new(seed, 5);
-    let mut sum = Vec3::ZERO;
-    for _ in 0..n {
-        let ul = rng.next_f32();
-        if let Some(s) = bsdf.sample(wo, ul, rng.next_2d()) {
-            sum += s.weight;
-        }
-    }
-    sum / n as f32
-}
 
 #[test]
 fn white_lambert_reflects_exactly_one() {

@@ -80,6 +80,11 @@ impl<B: Bsdf> Bsdf for WithGlass<B> {
         self.glass.is_some_and(|g| !g.smooth)
     }
 
+    /// Glass passes on about all it receives.
+    fn reflectance(&self) -> f32 {
+        self.glass_weight + (1.0 - self.glass_weight) * self.base.as_ref().map_or(0.0, |b| b.reflectance())
+    }
+
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let p = self.glass_probability;
         // One uniform picks the part and, rescaled, the lobe within it.

@@ -40,6 +40,7 @@ const RENDERED: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_ior",
+    "KHR_materials_clearcoat",
     "KHR_lights_punctual",
 ];
 
@@ -52,6 +53,7 @@ const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_materials_clearcoat",
     "KHR_lights_punctual",
 ];
 
@@ -637,6 +639,10 @@ impl<'a> Builder<'a> {
         if self.images.unsupported_sets > 0 {
             w.push(format!("{} texture reference(s) use a texture coordinate set above 1: TEXCOORD_1 is read instead", self.images.unsupported_sets));
         }
+        let coat_textures = self.root.materials.iter().filter(|m| has_coat_texture(m)).count();
+        if coat_textures > 0 {
+            w.push(format!("{coat_textures} material(s) have clearcoat textures, which are not read yet: their coat factors are used"));
+        }
         let unsupported: Vec<&str> = self.root.extensions_used.iter().map(String::as_str).filter(|e| !RENDERED.contains(e)).collect();
         if !unsupported.is_empty() {
             w.push(format!("not rendered yet, ignored: {}", unsupported.join(", ")));
@@ -721,6 +727,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
     let transmission = extensions.and_then(|e| e.transmission.as_ref()).map_or(0.0, |t| finite_or(t.transmission_factor.0, 0.0).clamp(0.0, 1.0));
     // KHR_materials_ior allows 1 and up; anything else is its default.
     let ior = extensions.and_then(|e| e.ior.as_ref()).map(|i| i.ior.0).filter(|i| i.is_finite() && *i >= 1.0).unwrap_or(1.5);
+    let (coat, coat_roughness) = clearcoat(extensions.and_then(|e| e.others.get("KHR_materials_clearcoat")));
     let alpha_mode = match m.alpha_mode {
         Checked::Valid(gltf::json::material::AlphaMode::Mask) => AlphaMode::Mask(m.alpha_cutoff.map_or(0.5, |c| finite_or(c.0, 0.5))),
         Checked::Valid(gltf::json::material::AlphaMode::Blend) => AlphaMode::Blend,
@@ -743,7 +750,23 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         multiscatter: true,
         transmission,
         ior,
+        coat,
+        coat_roughness,
     }
+}
+
+/// Whether a material's KHR_materials_clearcoat names a texture.
+fn has_coat_texture(m: &gltf::json::Material) -> bool {
+    let coat = m.extensions.as_ref().and_then(|e| e.others.get("KHR_materials_clearcoat"));
+    ["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"].iter().any(|key| coat.and_then(|c| c.get(key)).is_some())
+}
+
+/// KHR_materials_clearcoat's factors (weight, roughness), each 0 where
+/// absent or not a number, clamped to [0, 1]. Its textures are not read
+/// (`coat_texture_warnings`).
+fn clearcoat(extension: Option<&serde_json::Value>) -> (f32, f32) {
+    let factor = |name: &str| extension.and_then(|e| e.get(name)).and_then(serde_json::Value::as_f64).map_or(0.0, |v| finite_or(v as f32, 0.0).clamp(0.0, 1.0));
+    (factor("clearcoatFactor"), factor("clearcoatRoughnessFactor"))
 }
 
 #[cfg(test)]

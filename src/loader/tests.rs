@@ -179,6 +179,26 @@ fn transmission_and_ior() {
     assert_eq!((m.transmission, m.ior), (1.0, 1.5));
 }
 
+/// KHR_materials_clearcoat's two factors, as Blender's exporter writes
+/// Coat Weight and Roughness: read, clamped, 0 where absent or not numbers;
+/// its textures named in a warning, since only the factors are read.
+#[test]
+fn clearcoat_factors() {
+    let mut d = base_doc();
+    assert_eq!((load(&d).unwrap().materials[0].coat, load(&d).unwrap().materials[0].coat_roughness), (0.0, 0.0));
+    d["extensionsUsed"] = json!(["KHR_materials_clearcoat"]);
+    d["materials"][0]["extensions"] = json!({"KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.1}});
+    let s = load(&d).unwrap();
+    assert_eq!((s.materials[0].coat, s.materials[0].coat_roughness), (0.7, 0.1));
+    assert!(s.materials[0].is_coated() && s.warnings.is_empty(), "{:?}", s.warnings);
+    d["materials"][0]["extensions"] = json!({"KHR_materials_clearcoat": {"clearcoatFactor": 4.0, "clearcoatRoughnessFactor": "rough", "clearcoatTexture": {"index": 0}}});
+    let s = load(&d).unwrap();
+    assert_eq!((s.materials[0].coat, s.materials[0].coat_roughness), (1.0, 0.0));
+    assert!(s.warnings.iter().any(|w| w.contains("1 material(s) have clearcoat textures")), "{:?}", s.warnings);
+    d["materials"][0]["extensions"] = json!({"KHR_materials_clearcoat": {"clearcoatFactor": -1.0}});
+    assert!(!load(&d).unwrap().materials[0].is_coated());
+}
+
 #[test]
 fn factors_outside_gltf_ranges_are_clamped() {
     let mut d = base_doc();

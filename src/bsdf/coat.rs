@@ -1,0 +1,326 @@
+//! A clear coat over a BSDF, as Cycles 4.5's Principled BSDF lays its Coat
+//! over everything below it (glTF's KHR_materials_clearcoat, which Blender's
+//! exporter writes from Coat Weight and Coat Roughness):
+//!
+//!   f = c · S_c · F_diel(wo·h) · f_ggx(α_c) + (1 − c · E_layer(μo, r_c)) · f_base
+//!
+//! * c: the coat's weight; α_c = r_c², r_c its roughness.
+//! * The coat is Cycles' dielectric microfacet reflection at IOR 1.5 (glTF's
+//!   coat IOR, Blender's default): exact Fresnel, and always compensated for
+//!   multiple scattering (S_c, energy.rs), whatever the node's Distribution
+//!   says — Cycles' `bsdf_microfacet_setup_fresnel_dielectric` does so.
+//! * What lies below gets what the coat does not reflect: its weight is
+//!   1 − c·E_layer(μo, r_c), the coat's albedo at wo from the same table as
+//!   the Principled specular layer's (Cycles' `closure_layering_weight`).
+//!   Like Cycles' layering, it depends on wo only.
+//! * The coat's normal is the surface's shading normal (Cycles uses the
+//!   normal before any normal map unless Coat Normal is linked: with a
+//!   normal map, the two differ), and its tint is white (glTF carries none).
+//!
+//! Only kernels for scenes with a coated material run this (features.rs).
+
+use super::energy::{layer_fresnel, ms_fraction, ms_scale, tables, EnergyRows, TableRow};
+use super::microfacet::{self, fresnel_dielectric};
+use super::{Bsdf, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
+use crate::material::Surface;
+use glam::Vec2;
+use crate::Vec3;
+
+/// The coat's IOR: glTF's (KHR_materials_clearcoat has no other).
+const COAT_ETA: f32 = 1.5;
+
+/// What of a coat depends on the surface alone, not on wo.
+#[derive(Clone, Copy, Debug)]
+pub struct CoatLayer {
+    weight: f32,
+    roughness: f32,
+    alpha: f32,
+    /// α² ≤ SMOOTH_ALPHA_SQ: a perfect mirror.
+    smooth: bool,
+    /// The energy tables along μ at the coat's roughness.
+    rows: Option<EnergyRows>,
+    /// F_ms of the coat, for its multiple-scattering scale.
+    f_ms: f32,
+}
+
+impl CoatLayer {
+    /// None where the surface has no coat.
+    pub fn of(s: &Surface) -> Option<Self> {
+        let weight = s.coat.clamp(0.0, 1.0);
+        if !(weight > 0.0) {
+            return None;
+        }
+        let roughness = s.coat_roughness.clamp(0.0, 1.0);
+        let alpha = roughness * roughness;
+        let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
+        let t = tables();
+        let (rows, f_ms) = if smooth { (None, 0.0) } else { (Some(t.rows(TableRow::of(roughness))), ms_fraction(t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x) };
+        Some(CoatLayer { weight, roughness, alpha, smooth, rows, f_ms })
+    }
+}
+
+/// A coat at one wo: its lobe's scale and albedo.
+#[derive(Clone, Copy, Debug)]
+struct CoatAt {
+    layer: CoatLayer,
+    /// c · S_c: the lobe's weight times its multiple-scattering scale.
+    scale: f32,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct WithCoat<B> {
+    base: B,
+    /// None where this point has no coat.
+    coat: Option<CoatAt>,
+    /// 1 − c·E_layer(μo): the share of the light the coat lets through.
+    base_weight: f32,
+    /// Probability of sampling the coat rather than the base.
+    coat_probability: f32,
+}
+
+impl<B: Bsdf> WithCoat<B> {
+    fn of(base: B, layer: Option<CoatLayer>, wo: Vec3) -> Self {
+        let Some(layer) = layer else {
+            return WithCoat { base, coat: None, base_weight: 1.0, coat_probability: 0.0 };
+        };
+        let mu = wo.z.clamp(0.0, 1.0);
+        // A mirror loses nothing to single scattering, and its albedo is
+        // the Fresnel reflectance itself.
+        let (s, albedo) = match &layer.rows {
+            None => (1.0, fresnel_dielectric(mu, COAT_ETA)),
+            Some(rows) => {
+                let (e, albedo) = rows.at(mu);
+                (ms_scale(e, Vec3::splat(layer.f_ms)).x, albedo)
+            }
+        };
+        let reflected = layer.weight * albedo;
+        let base_weight = (1.0 - reflected).clamp(0.0, 1.0);
+        let below = base_weight * base.reflectance();
+        let mut coat_probability = if reflected + below > 0.0 { reflected / (reflected + below) } else { 1.0 };
+        // As the Principled specular layer: a narrow lobe gets at least a
+        // floor share, for the sharp highlights light samples miss.
+        if below > 0.0 {
+            coat_probability = coat_probability.max(SPEC_MIN_SHARE * (1.0 - layer.roughness) * (1.0 - layer.roughness));
+        }
+        WithCoat { base, coat: Some(CoatAt { layer, scale: layer.weight * s }), base_weight, coat_probability }
+    }
+
+    /// The coat's lobe alone (0 for a mirror coat, which only sampling finds).
+    fn coat_eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match &self.coat {
+            Some(c) if !c.layer.smooth && wo.z > 0.0 && wi.z > 0.0 => {
+                let (lobe, pdf) = microfacet::eval_pdf(wo, wi, c.layer.alpha);
+                (Vec3::splat(c.scale * layer_fresnel(microfacet::cos_half(wo, wi)) * lobe), pdf)
+            }
+            _ => (Vec3::ZERO, 0.0),
+        }
+    }
+}
+
+impl<B: Bsdf> Bsdf for WithCoat<B> {
+    type Prepared = (B::Prepared, Option<CoatLayer>);
+
+    fn prepare(surface: &Surface) -> Self::Prepared {
+        (B::prepare(surface), CoatLayer::of(surface))
+    }
+
+    fn at(prepared: &Self::Prepared, wo: Vec3) -> Self {
+        WithCoat::of(B::at(&prepared.0, wo), prepared.1, wo)
+    }
+
+    fn new(surface: &Surface, wo: Vec3) -> Self {
+        WithCoat::of(B::new(surface, wo), CoatLayer::of(surface), wo)
+    }
+
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.coat_eval_pdf(wo, wi).0 + self.base.eval(wo, wi) * self.base_weight
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let p = self.coat_probability;
+        p * self.coat_eval_pdf(wo, wi).1 + (1.0 - p) * self.base.pdf(wo, wi)
+    }
+
+    fn evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let p = self.coat_probability;
+        let (coat, coat_pdf) = self.coat_eval_pdf(wo, wi);
+        let (base, base_pdf) = self.base.evaluate(wo, wi);
+        (coat + base * self.base_weight, p * coat_pdf + (1.0 - p) * base_pdf)
+    }
+
+    fn transmits(&self) -> bool {
+        self.base.transmits()
+    }
+
+    fn reflectance(&self) -> f32 {
+        (1.0 - self.base_weight) + self.base_weight * self.base.reflectance()
+    }
+
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let p = self.coat_probability;
+        let s = match &self.coat {
+            Some(c) if u_lobe < p => {
+                if wo.z <= 0.0 {
+                    return None;
+                }
+                if c.layer.smooth {
+                    // The mirror: no other lobe makes this direction.
+                    let f = Vec3::splat(c.layer.weight * fresnel_dielectric(wo.z, COAT_ETA));
+                    return Some(BsdfSample { wi: Vec3::new(-wo.x, -wo.y, wo.z), f, pdf: p, weight: f / p, delta: true });
+                }
+                let wi = microfacet::sample(wo, c.layer.alpha, u)?.0;
+                BsdfSample { wi, f: Vec3::ZERO, pdf: 0.0, weight: Vec3::ZERO, delta: false }
+            }
+            _ => {
+                // One uniform picks the layer and, rescaled, the lobe below.
+                let s = self.base.sample(wo, ((u_lobe - p) / (1.0 - p)).clamp(0.0, 1.0), u)?;
+                if self.coat.is_none() {
+                    return Some(s);
+                }
+                if s.delta {
+                    return Some(BsdfSample { f: s.f * self.base_weight, pdf: s.pdf * (1.0 - p), weight: s.weight * (self.base_weight / (1.0 - p)), ..s });
+                }
+                s
+            }
+        };
+        let (f, pdf) = self.evaluate(wo, s.wi);
+        let weight = f * (s.wi.z.abs() / pdf);
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { f, pdf, weight, ..s })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::chi2::{albedo_of, bsdf_chi2, dir_at};
+    use crate::bsdf::{PrincipledBsdf, WithGlass};
+    use crate::material::Material;
+    use crate::rng::Rng;
+
+    type Coated = WithCoat<WithGlass<PrincipledBsdf>>;
+
+    fn coated(base: Vec3, metallic: f32, roughness: f32, coat: f32, coat_roughness: f32) -> Surface {
+        Material { base_color: base, metallic, roughness, coat, coat_roughness, ..Material::default() }.surface()
+    }
+
+    /// A white surface under a coat still returns all the light: the coat
+    /// reflects c·E_layer(μo) (its lobe compensated for multiple
+    /// scattering) and what lies below gets the rest. Cycles' layering
+    /// keeps this furnace too.
+    #[test]
+    fn a_coated_white_surface_passes_the_furnace_test() {
+        let mut worst = 0.0f32;
+        for (metallic, roughness) in [(0.0f32, 0.5f32), (1.0, 0.3), (0.0, 0.0)] {
+            for (coat, coat_roughness) in [(1.0f32, 0.03f32), (1.0, 0.3), (0.5, 0.8), (1.0, 0.0)] {
+                for theta in [0.0f32, 45.0, 75.0, 85.0] {
+                    let wo = dir_at(theta);
+                    let bsdf = Coated::new(&coated(Vec3::ONE, metallic, roughness, coat, coat_roughness), wo);
+                    let a = albedo_of(&bsdf, wo, 100_000, 31).max_element();
+                    worst = worst.max((a - 1.0).abs());
+                    // As the Principled furnace (bsdf/tests.rs): noise < 0.3%,
+                    // the tables' interpolation < 1%.
+                    assert!((a - 1.0).abs() < 0.015, "metallic {metallic} roughness {roughness} coat {coat}/{coat_roughness} θo {theta}: albedo {a}");
+                }
+            }
+        }
+        eprintln!("white furnace under a coat: worst |albedo − 1| = {worst:.4}");
+    }
+
+    /// A black base shows the coat alone: c·E_layer(μo), what it takes
+    /// from the layers below.
+    #[test]
+    fn over_black_the_coat_reflects_its_own_albedo() {
+        for (coat, coat_roughness) in [(1.0f32, 0.3f32), (0.6, 0.7), (1.0, 0.0)] {
+            for theta in [0.0f32, 60.0, 85.0] {
+                let wo = dir_at(theta);
+                let s = coated(Vec3::ZERO, 0.0, 0.5, coat, coat_roughness);
+                let bsdf = Coated::new(&Surface { specular: 0.0, ..s }, wo);
+                let a = albedo_of(&bsdf, wo, 200_000, 32).x;
+                let expected = 1.0 - bsdf.base_weight;
+                assert!((a - expected).abs() < 0.01 * expected + 1e-4, "coat {coat}/{coat_roughness} θo {theta}: {a} vs {expected}");
+            }
+        }
+    }
+
+    #[test]
+    fn coated_sampling_matches_its_pdf() {
+        const P_MIN: f64 = 1e-4;
+        for (base, metallic, roughness) in [(Vec3::new(0.8, 0.3, 0.2), 0.0f32, 0.5f32), (Vec3::new(1.0, 0.7, 0.3), 1.0, 0.6)] {
+            for coat_roughness in [0.3f32, 0.6] {
+                for theta in [10.0f32, 60.0, 85.0] {
+                    let wo = dir_at(theta);
+                    let bsdf = Coated::new(&coated(base, metallic, roughness, 0.8, coat_roughness), wo);
+                    let r = bsdf_chi2(&bsdf, wo, 1_000_000, 7);
+                    assert!(r.p_value > P_MIN, "metallic {metallic} coat roughness {coat_roughness} θo {theta}: p = {}", r.p_value);
+                }
+            }
+        }
+    }
+
+    /// Without a coat the layer is not there, bit for bit: the general
+    /// kernel (`--features all`) renders what the scene's own does.
+    #[test]
+    fn no_coat_is_the_base_bit_for_bit() {
+        let mut rng = Rng::new(3, 4);
+        for (metallic, roughness, transmission) in [(0.0f32, 0.0f32, 0.0f32), (0.0, 0.4, 0.0), (1.0, 0.2, 0.0), (0.0, 0.3, 0.7)] {
+            let m = Surface { transmission, ..coated(Vec3::new(0.9, 0.6, 0.2), metallic, roughness, 0.0, 0.3) };
+            for theta in [0.0f32, 40.0, 89.0] {
+                let wo = dir_at(theta);
+                let (a, b) = (Coated::new(&m, wo), WithGlass::<PrincipledBsdf>::new(&m, wo));
+                for _ in 0..300 {
+                    let d = crate::sampling::cosine_hemisphere(rng.next_2d());
+                    let wi = if rng.next_f32() < 0.3 { -d } else { d };
+                    assert_eq!(a.evaluate(wo, wi), b.evaluate(wo, wi));
+                    let (ul, u) = (rng.next_f32(), rng.next_2d());
+                    let (sa, sb) = (a.sample(wo, ul, u), b.sample(wo, ul, u));
+                    assert_eq!(sa.map(|s| (s.wi, s.f, s.pdf, s.weight, s.delta)), sb.map(|s| (s.wi, s.f, s.pdf, s.weight, s.delta)));
+                }
+            }
+        }
+    }
+
+    /// A coat of roughness 0 is a mirror: sampled as a delta lobe with the
+    /// Fresnel reflectance of IOR 1.5, never evaluated, and the base below
+    /// gets 1 − c·F(μo).
+    #[test]
+    fn a_smooth_coat_is_a_fresnel_mirror() {
+        let wo = dir_at(60.0);
+        let bsdf = Coated::new(&coated(Vec3::new(0.5, 0.5, 0.5), 0.0, 0.5, 0.8, 0.0), wo);
+        let fresnel = fresnel_dielectric(wo.z, COAT_ETA);
+        assert!((bsdf.base_weight - (1.0 - 0.8 * fresnel)).abs() < 1e-6);
+        let s = bsdf.sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
+        assert!(s.delta && s.wi == Vec3::new(-wo.x, -wo.y, wo.z) && (s.f.x - 0.8 * fresnel).abs() < 1e-6, "{s:?}");
+        let base = WithGlass::<PrincipledBsdf>::new(&coated(Vec3::new(0.5, 0.5, 0.5), 0.0, 0.5, 0.0, 0.0), wo);
+        assert_eq!(bsdf.eval(wo, s.wi), base.eval(wo, s.wi) * bsdf.base_weight);
+    }
+
+    /// Roughness to 0, grazing and back-facing directions: finite,
+    /// non-negative values, and sampled pdfs that `pdf` agrees with.
+    #[test]
+    fn coats_are_finite_at_every_roughness_and_angle() {
+        let at_cos = |c: f32, phi: f32| Vec3::new((1.0 - c * c).sqrt() * phi.cos(), (1.0 - c * c).sqrt() * phi.sin(), c);
+        let cosines = [1.0f32, 0.3, 1e-3, 1e-7, 0.0, -1e-7, -0.5];
+        let mut rng = Rng::new(12, 14);
+        for coat_roughness in [0.0f32, 1e-4, 1e-3, 0.03, 0.5, 1.0] {
+            for metallic in [0.0f32, 1.0] {
+                let m = coated(Vec3::new(1.0, 0.5, 0.0), metallic, 0.2, 1.0, coat_roughness);
+                for &co in &cosines {
+                    let wo = at_cos(co, 0.3);
+                    let bsdf = Coated::new(&m, wo);
+                    for &ci in &cosines {
+                        let (f, pdf) = bsdf.evaluate(wo, at_cos(ci, 2.0));
+                        assert!(f.is_finite() && f.min_element() >= 0.0 && pdf.is_finite() && pdf >= 0.0, "coat {coat_roughness} cos {co}/{ci}: {f} {pdf}");
+                    }
+                    for _ in 0..2000 {
+                        if let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) {
+                            assert!(co > 0.0 && s.weight.is_finite() && s.weight.min_element() >= 0.0, "coat {coat_roughness} cos {co}: {s:?}");
+                            if !s.delta {
+                                assert!((s.pdf - bsdf.pdf(wo, s.wi)).abs() <= 1e-4 * s.pdf);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
