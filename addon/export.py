@@ -8,17 +8,19 @@ KHR_materials_specular 0, the image textures plugged into them and a Normal
 Map node's image (with texture coordinates, Blender's own MikkTSpace
 tangents where a normal map needs them, and the colour attributes materials
 use), alpha, Transmission Weight and IOR (KHR_materials_transmission,
-KHR_materials_ior: glass), cameras and mesh geometry with modifiers applied.
+KHR_materials_ior: glass), Coat Weight and Roughness
+(KHR_materials_clearcoat), cameras and mesh geometry with modifiers applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²); their radius and Soft Falloff, and a sun's
 angle, go in the request. Not carried, or not yet rendered
-by Glint: procedural textures (the user is warned), other Principled
-inputs (coat, sheen, subsurface, anisotropy, thin film), and World node setups other than a plain
+by Glint: procedural textures and a Coat IOR other than 1.5 (the user
+is warned), other Principled inputs (sheen, subsurface, anisotropy, thin
+film), and World node setups other than a plain
 Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
 Through the request: resolution × percentage, the scene camera and what
-glTF cannot say of it (Shift X and Y, Depth of Field), Film › Transparent, samples, bounces,
+glTF cannot say of it (Shift X and Y, Depth of Field), Film › Transparent, Coat Tint, samples, bounces,
 time limit, seed, the World colour, every area light (glTF has none):
 shape, size, world transform, colour and power, and the sizes of the
 point, spot and sun lights. (The camera's Clip Start and End go through
@@ -212,6 +214,9 @@ def render_request(depsgraph, job, width, height):
     if procedural:
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
     warnings.extend(light_settings_left_out(depsgraph))
+    tints, coat_iors = coat_settings(depsgraph)
+    if coat_iors:
+        warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
     request = {
         "job": job,
         "scene": "scene.glb",
@@ -239,6 +244,8 @@ def render_request(depsgraph, job, width, height):
     )
     if single_scatter:
         request["single_scatter_materials"] = single_scatter
+    if tints:
+        request["coat_tints"] = tints
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
     if settings.light_paths != "AUTO":
@@ -309,6 +316,27 @@ def used_materials(depsgraph):
             if m is not None and m.use_nodes and m.node_tree is not None:
                 found[m.name] = m
     return list(found.values())
+
+
+def coat_settings(depsgraph):
+    """What glTF's coat leaves out of coated Principled BSDFs: their Coat
+    Tint where it is not white (for the request; a linked one is left
+    white), and the names of materials whose Coat IOR is not 1.5."""
+    tints, iors = [], []
+    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+        for node in (n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"):
+            weight = node.inputs["Coat Weight"]
+            if not weight.is_linked and weight.default_value <= 0.0:
+                continue
+            tint = node.inputs["Coat Tint"]
+            rgb = [min(max(c, 0.0), 1.0) for c in tint.default_value[:3]]
+            if not tint.is_linked and rgb != [1.0, 1.0, 1.0]:
+                tints.append({"material": m.name, "tint": rgb})
+            ior = node.inputs["Coat IOR"]
+            if ior.is_linked or abs(ior.default_value - 1.5) > 1e-4:
+                iors.append(m.name)
+            break
+    return tints, sorted(set(iors))
 
 
 # Texture nodes that compute their values: glTF carries images only.

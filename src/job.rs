@@ -10,7 +10,7 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{LensRequest, LightSize, RenderRequest};
+use crate::request::{CoatTint, LensRequest, LightSize, RenderRequest};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -106,6 +106,7 @@ pub struct SceneExtras<'a> {
     pub area_lights: &'a [AreaLight],
     /// Materials rendered with plain (single-scattering) GGX.
     pub single_scatter_materials: &'a [String],
+    pub coat_tints: &'a [CoatTint],
     pub default_surface: Option<[f32; 3]>,
     pub light_sizes: &'a [LightSize],
     /// The camera's shift and depth of field.
@@ -114,7 +115,7 @@ pub struct SceneExtras<'a> {
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref() }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref() }
     }
 }
 
@@ -192,6 +193,14 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     for m in scene.materials.iter_mut().filter(|m| extras.single_scatter_materials.contains(&m.name)) {
         m.multiscatter = false;
     }
+    for CoatTint { material, tint } in extras.coat_tints {
+        if tint.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) {
+            return Err(format!("{name}: coat tint of '{material}' must have channels in [0, 1]"));
+        }
+        for m in scene.materials.iter_mut().filter(|m| &m.name == material) {
+            m.coat_tint = Vec3::from(*tint);
+        }
+    }
     if let (Some(colour), Some(id)) = (extras.default_surface, scene.default_material) {
         let m = &mut scene.materials[id as usize];
         (m.base_color, m.metallic, m.specular) = (Vec3::from(colour), 0.0, 0.0);
@@ -238,4 +247,23 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         transparent: options.transparent.unwrap_or(false),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A request's Coat Tint reaches the material it names; a tint outside
+    /// [0, 1] is one line naming the file and the material.
+    #[test]
+    fn coat_tints_reach_their_materials_and_bad_ones_are_errors() {
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        let tints = [CoatTint { material: "red".into(), tint: [0.9, 0.5, 0.2] }];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { coat_tints: &tints, ..SceneExtras::default() }).unwrap();
+        let tint_of = |name: &str| job.scene.materials.iter().find(|m| m.name == name).unwrap().coat_tint;
+        assert_eq!((tint_of("red"), tint_of("white")), (Vec3::new(0.9, 0.5, 0.2), Vec3::ONE));
+        let bad = [CoatTint { material: "red".into(), tint: [0.9, f32::NAN, 0.2] }];
+        let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { coat_tints: &bad, ..SceneExtras::default() }).err().unwrap();
+        assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+    }
 }

@@ -28,6 +28,8 @@ pub struct Surface {
     /// without it.
     pub coat: f32,
     pub coat_roughness: f32,
+    /// Blender's Coat Tint (white: none).
+    pub coat_tint: Vec3,
 }
 
 impl Surface {
@@ -119,6 +121,8 @@ pub struct Material {
     /// clearcoatRoughnessFactor (0 and 0 without it).
     pub coat: f32,
     pub coat_roughness: f32,
+    /// Blender's Coat Tint, from a render request (white without).
+    pub coat_tint: Vec3,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,
     /// baseColorFactor's alpha.
@@ -145,6 +149,7 @@ impl Default for Material {
             ior: 1.5,
             coat: 0.0,
             coat_roughness: 0.0,
+            coat_tint: Vec3::ONE,
             textures: None,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
@@ -172,6 +177,7 @@ impl Material {
             ior: self.ior,
             coat: self.coat,
             coat_roughness: self.coat_roughness,
+            coat_tint: self.coat_tint,
         }
     }
 

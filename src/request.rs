@@ -12,6 +12,7 @@
 //!   "area_lights": [ { "name": "Area", "shape": "RECTANGLE",
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
+//!   "coat_tints": [ { "material": "Car paint", "tint": [0.6, 0.1, 0.1] } ],
 //!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
 //!     { "name": "Sun", "angle": 0.00918 } ],
 //!   "lens": { "shift": [0.1, 0], "aperture": { "radius": 0.0125,
@@ -22,6 +23,15 @@ use crate::bsdf::BsdfModel;
 use crate::lamps::AreaLight;
 use serde::Deserialize;
 use std::path::Path;
+
+/// One material's Coat Tint: linear Rec.709, each channel in [0, 1] (the
+/// colour the coat gives light that crosses it straight down and back).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CoatTint {
+    pub material: String,
+    pub tint: [f32; 3],
+}
 
 /// Largest request file read (area lights are ~300 bytes each).
 pub const MAX_REQUEST_BYTES: u64 = 16 << 20;
@@ -62,6 +72,9 @@ pub struct RenderRequest {
     /// Materials, by name, whose Principled BSDF uses plain "GGX" rather
     /// than Cycles' default "Multiscatter GGX".
     pub single_scatter_materials: Vec<String>,
+    /// Blender's Coat Tint of coated materials, by name, where it is not
+    /// white (glTF's clearcoat has no tint).
+    pub coat_tints: Vec<CoatTint>,
     pub area_lights: Vec<AreaLight>,
     /// Diffuse colour of primitives without a material, instead of glTF's
     /// default (white metal): Cycles renders them with its default surface,

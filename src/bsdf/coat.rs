@@ -13,15 +13,19 @@
 //!   1 − c·E_layer(μo, r_c), the coat's albedo at wo from the same table as
 //!   the Principled specular layer's (Cycles' `closure_layering_weight`).
 //!   Like Cycles' layering, it depends on wo only.
+//! * Coat Tint (from the render request: glTF carries none) colours what
+//!   the layers below send through the coat: their weight × mix(1,
+//!   tint^(1/cosθt), c), θt the angle of wo refracted into the coat — a
+//!   path through a coat of unit thickness, as Cycles takes it.
 //! * The coat's normal is the surface's shading normal (Cycles uses the
 //!   normal before any normal map unless Coat Normal is linked: with a
-//!   normal map, the two differ), and its tint is white (glTF carries none).
+//!   normal map, the two differ).
 //!
 //! Only kernels for scenes with a coated material run this (features.rs).
 
 use super::energy::{layer_fresnel, ms_fraction, ms_scale, tables, EnergyRows, TableRow};
 use super::microfacet::{self, fresnel_dielectric};
-use super::{Bsdf, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
+use super::{luminance, Bsdf, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
 use crate::material::Surface;
 use glam::Vec2;
 use crate::Vec3;
@@ -41,6 +45,8 @@ pub struct CoatLayer {
     rows: Option<EnergyRows>,
     /// F_ms of the coat, for its multiple-scattering scale.
     f_ms: f32,
+    /// Coat Tint, where it is not white.
+    tint: Option<Vec3>,
 }
 
 impl CoatLayer {
@@ -55,7 +61,8 @@ impl CoatLayer {
         let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
         let t = tables();
         let (rows, f_ms) = if smooth { (None, 0.0) } else { (Some(t.rows(TableRow::of(roughness))), ms_fraction(t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x) };
-        Some(CoatLayer { weight, roughness, alpha, smooth, rows, f_ms })
+        let tint = (s.coat_tint != Vec3::ONE).then(|| s.coat_tint.clamp(Vec3::ZERO, Vec3::ONE));
+        Some(CoatLayer { weight, roughness, alpha, smooth, rows, f_ms, tint })
     }
 }
 
@@ -65,6 +72,8 @@ struct CoatAt {
     layer: CoatLayer,
     /// c · S_c: the lobe's weight times its multiple-scattering scale.
     scale: f32,
+    /// c · E_layer(μo): what the coat reflects.
+    reflected: f32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -72,8 +81,9 @@ pub struct WithCoat<B> {
     base: B,
     /// None where this point has no coat.
     coat: Option<CoatAt>,
-    /// 1 − c·E_layer(μo): the share of the light the coat lets through.
-    base_weight: f32,
+    /// 1 − c·E_layer(μo), tinted: the share of the light the coat lets
+    /// through.
+    base_weight: Vec3,
     /// Probability of sampling the coat rather than the base.
     coat_probability: f32,
 }
@@ -81,7 +91,7 @@ pub struct WithCoat<B> {
 impl<B: Bsdf> WithCoat<B> {
     fn of(base: B, layer: Option<CoatLayer>, wo: Vec3) -> Self {
         let Some(layer) = layer else {
-            return WithCoat { base, coat: None, base_weight: 1.0, coat_probability: 0.0 };
+            return WithCoat { base, coat: None, base_weight: Vec3::ONE, coat_probability: 0.0 };
         };
         let mu = wo.z.clamp(0.0, 1.0);
         // A mirror loses nothing to single scattering, and its albedo is
@@ -94,15 +104,19 @@ impl<B: Bsdf> WithCoat<B> {
             }
         };
         let reflected = layer.weight * albedo;
-        let base_weight = (1.0 - reflected).clamp(0.0, 1.0);
-        let below = base_weight * base.reflectance();
+        let mut base_weight = Vec3::splat((1.0 - reflected).clamp(0.0, 1.0));
+        if let Some(tint) = layer.tint {
+            let cos_t = (1.0 - (1.0 - mu * mu) / (COAT_ETA * COAT_ETA)).sqrt();
+            base_weight *= Vec3::ONE.lerp(tint.powf(1.0 / cos_t), layer.weight);
+        }
+        let below = luminance(base_weight) * base.reflectance();
         let mut coat_probability = if reflected + below > 0.0 { reflected / (reflected + below) } else { 1.0 };
         // As the Principled specular layer: a narrow lobe gets at least a
         // floor share, for the sharp highlights light samples miss.
         if below > 0.0 {
             coat_probability = coat_probability.max(SPEC_MIN_SHARE * (1.0 - layer.roughness) * (1.0 - layer.roughness));
         }
-        WithCoat { base, coat: Some(CoatAt { layer, scale: layer.weight * s }), base_weight, coat_probability }
+        WithCoat { base, coat: Some(CoatAt { layer, scale: layer.weight * s, reflected }), base_weight, coat_probability }
     }
 
     /// The coat's lobe alone (0 for a mirror coat, which only sampling finds).
@@ -153,7 +167,7 @@ impl<B: Bsdf> Bsdf for WithCoat<B> {
     }
 
     fn reflectance(&self) -> f32 {
-        (1.0 - self.base_weight) + self.base_weight * self.base.reflectance()
+        self.coat.map_or(0.0, |c| c.reflected) + luminance(self.base_weight) * self.base.reflectance()
     }
 
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
@@ -236,7 +250,7 @@ mod tests {
                 let s = coated(Vec3::ZERO, 0.0, 0.5, coat, coat_roughness);
                 let bsdf = Coated::new(&Surface { specular: 0.0, ..s }, wo);
                 let a = albedo_of(&bsdf, wo, 200_000, 32).x;
-                let expected = 1.0 - bsdf.base_weight;
+                let expected = 1.0 - bsdf.base_weight.x;
                 assert!((a - expected).abs() < 0.01 * expected + 1e-4, "coat {coat}/{coat_roughness} θo {theta}: {a} vs {expected}");
             }
         }
@@ -287,11 +301,30 @@ mod tests {
         let wo = dir_at(60.0);
         let bsdf = Coated::new(&coated(Vec3::new(0.5, 0.5, 0.5), 0.0, 0.5, 0.8, 0.0), wo);
         let fresnel = fresnel_dielectric(wo.z, COAT_ETA);
-        assert!((bsdf.base_weight - (1.0 - 0.8 * fresnel)).abs() < 1e-6);
+        assert!((bsdf.base_weight - Vec3::splat(1.0 - 0.8 * fresnel)).abs().max_element() < 1e-6);
         let s = bsdf.sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
         assert!(s.delta && s.wi == Vec3::new(-wo.x, -wo.y, wo.z) && (s.f.x - 0.8 * fresnel).abs() < 1e-6, "{s:?}");
         let base = WithGlass::<PrincipledBsdf>::new(&coated(Vec3::new(0.5, 0.5, 0.5), 0.0, 0.5, 0.0, 0.0), wo);
         assert_eq!(bsdf.eval(wo, s.wi), base.eval(wo, s.wi) * bsdf.base_weight);
+    }
+
+    /// Coat Tint colours what crosses the coat: under a smooth coat the
+    /// layers below keep (1 − c·F(μo)) · mix(1, tint^(1/cosθt), c), θt the
+    /// refraction angle of wo into IOR 1.5 (Cycles' path length through a
+    /// coat of unit thickness); the coat's own reflection stays white.
+    #[test]
+    fn a_tint_colours_what_crosses_the_coat() {
+        let tint = Vec3::new(0.5, 1.0, 0.25);
+        let m = Surface { coat_tint: tint, ..coated(Vec3::ONE, 0.0, 0.5, 0.8, 0.0) };
+        for theta in [0.0f32, 60.0, 85.0] {
+            let wo = dir_at(theta);
+            let bsdf = Coated::new(&m, wo);
+            let cos_t = (1.0 - (1.0 - wo.z * wo.z) / 2.25f32).sqrt();
+            let expected = (1.0 - 0.8 * fresnel_dielectric(wo.z, COAT_ETA)) * Vec3::ONE.lerp(tint.powf(1.0 / cos_t), 0.8);
+            assert!((bsdf.base_weight - expected).abs().max_element() < 1e-5, "θo {theta}: {} vs {expected}", bsdf.base_weight);
+            let mirror = bsdf.sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
+            assert!(mirror.delta && mirror.f.x == mirror.f.y && mirror.f.y == mirror.f.z, "{mirror:?}");
+        }
     }
 
     /// Roughness to 0, grazing and back-facing directions: finite,

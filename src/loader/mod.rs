@@ -752,6 +752,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         ior,
         coat,
         coat_roughness,
+        coat_tint: Vec3::ONE,
     }
 }
 
