@@ -32,7 +32,7 @@ fn main() -> anyhow::Result<()> {
     };
     let (reference, _) = render(reference_spp, 12345, false);
     if let Some(path) = args.iter().position(|a| a == "--png").and_then(|i| args.get(i + 1)) {
-        glint::output::write_png(std::path::Path::new(path), size, size, &reference)?;
+        glint::output::write_png(std::path::Path::new(path), size, size, &reference, None)?;
     }
     glint::stdout_line!("lamp hall: {size}x{size}, {max_depth} bounces, {threads} threads, {seeds} seeds, reference {reference_spp} spp with the tree");
     glint::stdout_line!("| spp | tree: s | tree: relMSE | by power: s | by power: relMSE | error x time, power / tree |\n|---|---|---|---|---|---|");

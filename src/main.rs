@@ -397,7 +397,7 @@ fn inspect(path: &Path) -> Result<()> {
 fn write_outputs(exr: &Path, png: Option<&Path>, width: u32, height: u32, pixels: &[glint::Vec3], alpha: Option<&[f32]>) -> Result<()> {
     output::write_exr(exr, width, height, pixels, alpha)?;
     if let Some(png) = png {
-        output::write_png(png, width, height, pixels)?;
+        output::write_png(png, width, height, pixels, alpha)?;
     }
     Ok(())
 }

@@ -60,16 +60,29 @@ pub fn srgb_encode(linear: f32) -> f32 {
     if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
 }
 
-/// 8-bit sRGB PNG preview, clamped to [0, 1] (no tone mapping).
-pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+/// 8-bit sRGB PNG preview, clamped to [0, 1] (no tone mapping); with a
+/// transparent film's coverage, RGBA with straight alpha as PNG has it
+/// (the EXR's premultiplied colour divided by alpha, black where nothing
+/// is covered).
+pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3], alpha: Option<&[f32]>) -> Result<()> {
     check_size(width, height, pixels)?;
-    let bytes: Vec<u8> = pixels
-        .iter()
-        .flat_map(|p| p.to_array())
-        .map(|c| (srgb_encode(c) * 255.0 + 0.5) as u8)
-        .collect();
+    if alpha.is_some_and(|a| a.len() != pixels.len()) {
+        anyhow::bail!("{}: {} alpha values for {} pixels", path.display(), alpha.map_or(0, <[f32]>::len), pixels.len());
+    }
+    let byte = |c: f32| (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    let (bytes, colour): (Vec<u8>, _) = match alpha {
+        None => (pixels.iter().flat_map(|p| p.to_array()).map(|c| byte(srgb_encode(c))).collect(), image::ColorType::Rgb8),
+        Some(alpha) => {
+            let straight = |p: Vec3, a: f32| if a > 0.0 { p / a } else { Vec3::ZERO };
+            let rgba = pixels.iter().zip(alpha).flat_map(|(&p, &a)| {
+                let [r, g, b] = straight(p, a).to_array().map(|c| byte(srgb_encode(c)));
+                [r, g, b, byte(a)]
+            });
+            (rgba.collect(), image::ColorType::Rgba8)
+        }
+    };
     write_atomically(path, |tmp| {
-        image::save_buffer_with_format(tmp, &bytes, width, height, image::ColorType::Rgb8, image::ImageFormat::Png)
+        image::save_buffer_with_format(tmp, &bytes, width, height, colour, image::ImageFormat::Png)
             .with_context(|| format!("{}: cannot write PNG", path.display()))
     })
 }
@@ -114,10 +127,28 @@ mod tests {
         write_exr(&path, 3, 2, &px, Some(&coverage)).unwrap();
         assert_eq!(read_exr_with_alpha(&path).unwrap().3, coverage);
         assert!(write_exr(&path, 3, 2, &px, Some(&coverage[..5])).is_err());
-        write_png(&dir.join("a.png"), 3, 2, &px).unwrap();
+        write_png(&dir.join("a.png"), 3, 2, &px, None).unwrap();
         let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 2, "{names:?}");
         assert!(write_exr(&path, 0, 2, &[], None).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A transparent film's PNG preview keeps its alpha, with the colour
+    /// straight as PNG has it: premultiplied 0.25 at alpha 0.5 is 0.5
+    /// (sRGB 188), and an uncovered pixel is black and transparent.
+    #[test]
+    fn png_preview_keeps_a_transparent_films_alpha() {
+        let dir = std::env::temp_dir().join(format!("glint-png-alpha-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.png");
+        let px = [Vec3::splat(0.25), Vec3::ZERO, Vec3::ONE];
+        write_png(&path, 3, 1, &px, Some(&[0.5, 0.0, 1.0])).unwrap();
+        let png = image::open(&path).unwrap().to_rgba8();
+        assert_eq!(png.as_raw().as_slice(), &[188, 188, 188, 128, 0, 0, 0, 0, 255, 255, 255, 255]);
+        write_png(&path, 3, 1, &px, None).unwrap();
+        assert_eq!(image::open(&path).unwrap().color(), image::ColorType::Rgb8);
+        assert!(write_png(&path, 3, 1, &px, Some(&[1.0])).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -40,10 +40,13 @@ fn renders_the_embedded_default_scene_to_exr_and_png() {
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
     // A transparent film: the box's open front lets some camera rays
     // out, whose pixels lose alpha; the box's walls keep theirs.
-    let o = glint(&["render", "-o", exr.to_str().unwrap(), "--spp", "2", "--width", "40", "--height", "30", "--transparent-film"]);
+    let o = glint(&["render", "-o", exr.to_str().unwrap(), "--png", png.to_str().unwrap(), "--spp", "2", "--width", "40", "--height", "30", "--transparent-film"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let alpha = glint::output::read_exr_with_alpha(&exr).unwrap().3;
     assert!(alpha.iter().any(|a| *a < 1.0) && alpha.iter().filter(|a| **a == 1.0).count() > alpha.len() / 2, "{alpha:?}");
+    // The preview keeps that alpha, in 8 bits.
+    let preview = image::open(&png).unwrap().to_rgba8();
+    assert!(preview.pixels().zip(&alpha).all(|(p, a)| (p.0[3] as f32 - a * 255.0).abs() <= 0.5), "the PNG's alpha is not the EXR's");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
