@@ -404,20 +404,29 @@ pub(crate) fn surface_facing(scene: &Scene, material: u32, triangle: u32, b: Bar
     facing(shading::surface_at(scene, &scene.materials[material as usize], triangle, b), front_face)
 }
 
-/// The BSDF at a hit for outgoing direction `wo` (local).
+/// The BSDF at a hit for outgoing direction `wo`, local to `frame` (the
+/// hit's own, or one a light vertex is viewed in).
 #[inline]
-pub(crate) fn bsdf_at<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, wo: Vec3) -> B {
-    bsdf_on::<B>(prepared, si.material, si.front_face, || si.surface, wo)
+pub(crate) fn bsdf_at<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], si: &SurfaceHit, frame: &Frame, wo: Vec3) -> B {
+    bsdf_on::<B>(prepared, si.material, si.front_face, || si.surface, frame, wo)
 }
 
-/// The BSDF of material `material`'s face for outgoing direction `wo`:
-/// prepared where the material is the same everywhere, else built from
-/// `surface`, the material at the point.
+/// The BSDF of material `material`'s face for outgoing direction `wo`
+/// (local to `frame`): prepared where the material is the same
+/// everywhere, else built from `surface`, the material at the point, its
+/// coat's own normal (world space) turned into the frame.
 #[inline]
-pub(crate) fn bsdf_on<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], material: u32, front_face: bool, surface: impl FnOnce() -> Surface, wo: Vec3) -> B {
+pub(crate) fn bsdf_on<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], material: u32, front_face: bool, surface: impl FnOnce() -> Surface, frame: &Frame, wo: Vec3) -> B {
     match &prepared[material as usize] {
         Some(faces) => B::at(&faces[!front_face as usize], wo),
-        None => B::new(&surface(), wo),
+        None => {
+            let mut s = surface();
+            if s.coat_normal != Vec3::ZERO {
+                let n = frame.to_local(s.coat_normal);
+                s.coat_normal = if n.z < 0.0 { -n } else { n };
+            }
+            B::new(&s, wo)
+        }
     }
 }
 
@@ -531,7 +540,7 @@ impl<B: Bsdf> Chain<'_, B> {
             return (0.0, 0.0);
         }
         let needs_pdf = self.rev.is_some() || matches!(self.tracing, Tracing::Rev(_));
-        let pdf_rev = if needs_pdf { bsdf_at::<B>(self.prepared, self.si, wi).pdf(wi, self.wo) } else { 1.0 };
+        let pdf_rev = if needs_pdf { bsdf_at::<B>(self.prepared, self.si, &self.si.frame, wi).pdf(wi, self.wo) } else { 1.0 };
         let c = self.base * self.rev.map_or(1.0, |rev| rev * pdf_rev);
         let ratio = match self.tracing {
             Tracing::Rev(k) => k * pdf_rev,
@@ -901,13 +910,13 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     if !(wi_y.z > 0.0 && wo_y.z > 0.0) {
         return Vec3::ZERO;
     }
-    let (f_y, pdf_y) = v.bsdf::<B>(ctx.scene, prepared, wo_y).evaluate(wo_y, wi_y);
+    let (f_y, pdf_y) = v.bsdf::<B>(ctx.scene, prepared, &frame, wo_y).evaluate(wo_y, wi_y);
     if f_y == Vec3::ZERO {
         return Vec3::ZERO;
     }
     // Light tracing makes z from y as the subpath would go on: the pdf
     // at y of the direction to z, arriving from y_{k−1}.
-    let traced = if tracing > 0.0 { tracing * v.bsdf::<B>(ctx.scene, prepared, wi_y).pdf(wi_y, wo_y) * w.dot(si.ng).abs() / d2 } else { 0.0 };
+    let traced = if tracing > 0.0 { tracing * v.bsdf::<B>(ctx.scene, prepared, &frame, wi_y).pdf(wi_y, wo_y) * w.dot(si.ng).abs() / d2 } else { 0.0 };
     let contribution = f_z * f_y * v.alpha * (scale * wi_z.z.abs() * cos_y / d2 * wi_y.z / v.to_prev.dot(v.ng));
     // The densities of light sampling at y1 (s = 1) and of a BSDF sample
     // there hitting y0 (s = 0) over this connection's: the ratio of z's
@@ -1073,7 +1082,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             break;
         }
         let wo = si.frame.to_local(-d);
-        let bsdf: B = bsdf_at(prepared, &si, wo);
+        let bsdf: B = bsdf_at(prepared, &si, &si.frame, wo);
         // The connection's side of this vertex's MIS weights: it could be
         // a light vertex of a connection from z where every vertex after z
         // could be (light_paths.rs).

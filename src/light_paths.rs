@@ -156,8 +156,8 @@ impl ConnectionVertex {
     /// The BSDF here for outgoing direction `wo` (local), as `bsdf_at`
     /// gives it at the hit the vertex was made from.
     #[inline]
-    pub fn bsdf<B: Bsdf>(&self, scene: &Scene, prepared: &[Option<[B::Prepared; 2]>], wo: Vec3) -> B {
-        bsdf_on::<B>(prepared, self.material, self.front_face, || surface_facing(scene, self.material, self.triangle, Barycentric::new(self.b[0], self.b[1]), self.front_face), wo)
+    pub fn bsdf<B: Bsdf>(&self, scene: &Scene, prepared: &[Option<[B::Prepared; 2]>], frame: &Frame, wo: Vec3) -> B {
+        bsdf_on::<B>(prepared, self.material, self.front_face, || surface_facing(scene, self.material, self.triangle, Barycentric::new(self.b[0], self.b[1]), self.front_face), frame, wo)
     }
 }
 
@@ -564,7 +564,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         if !(wo.z > 0.0) {
             return;
         }
-        let bsdf: B = bsdf_at(prepared, &v.hit, wo);
+        let bsdf: B = bsdf_at(prepared, &v.hit, &frame, wo);
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { return };
         let w = frame.to_world(s.wi);
         if s.delta || !(s.pdf > 0.0) || !same_side(&v.hit, w, s.wi) {
@@ -572,7 +572,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         }
         // The vertex as a camera path through it sees it: wo toward the
         // next vertex, wi toward the light.
-        let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, s.wi).evaluate(s.wi, wo);
+        let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, &frame, s.wi).evaluate(s.wi, wo);
         // ng faces y_{k−1}.
         let cos_in = v.to_prev.dot(v.hit.ng);
         let cos_out = w.dot(v.hit.ng).abs();

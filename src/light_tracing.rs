@@ -74,7 +74,7 @@ impl LightTracing<'_> {
         if !(wi_y.z > 0.0 && wo_y.z > 0.0) {
             return None;
         }
-        let (f_y, pdf_y) = bsdf_at::<B>(prepared, y, wo_y).evaluate(wo_y, wi_y);
+        let (f_y, pdf_y) = bsdf_at::<B>(prepared, y, &frame, wo_y).evaluate(wo_y, wi_y);
         if f_y == Vec3::ZERO {
             return None;
         }

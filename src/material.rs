@@ -30,6 +30,12 @@ pub struct Surface {
     pub coat_roughness: f32,
     /// Blender's Coat Tint (white: none).
     pub coat_tint: Vec3,
+    /// The coat's own normal where it differs from the shading normal:
+    /// the interpolated normal before a normal map, as Cycles' coat takes
+    /// it (Coat Normal unlinked). World space from `shading::surface_at`,
+    /// local to the BSDF's frame by `integrator::bsdf_on`; zero: the
+    /// shading normal.
+    pub coat_normal: Vec3,
 }
 
 impl Surface {
@@ -178,6 +184,7 @@ impl Material {
             coat: self.coat,
             coat_roughness: self.coat_roughness,
             coat_tint: self.coat_tint,
+            coat_normal: Vec3::ZERO,
         }
     }
 

@@ -64,6 +64,10 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
         if let Some(slot) = &t.transmission {
             s.transmission *= slot.sample(&scene.images, &uv, Encoding::Linear).x;
         }
+        // A normal map bends the layers below the coat, not the coat.
+        if t.normal.is_some() && m.is_coated() {
+            s.coat_normal = b.mix(&scene.triangles[triangle as usize].n()).normalize_or_zero();
+        }
     }
     s.base_color = s.base_color.clamp(Vec3::ZERO, Vec3::ONE);
     s.metallic = s.metallic.clamp(0.0, 1.0);

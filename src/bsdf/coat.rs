@@ -17,9 +17,10 @@
 //!   the layers below send through the coat: their weight × mix(1,
 //!   tint^(1/cosθt), c), θt the angle of wo refracted into the coat — a
 //!   path through a coat of unit thickness, as Cycles takes it.
-//! * The coat's normal is the surface's shading normal (Cycles uses the
-//!   normal before any normal map unless Coat Normal is linked: with a
-//!   normal map, the two differ).
+//! * The coat's normal is the interpolated normal before a normal map, as
+//!   Cycles takes it where Coat Normal is unlinked: a normal map bends the
+//!   layers below, not the coat. Where the two differ the coat's lobe is
+//!   evaluated and sampled in a frame of its own (`Surface::coat_normal`).
 //!
 //! Only kernels for scenes with a coated material run this (features.rs).
 
@@ -27,6 +28,7 @@ use super::energy::{layer_fresnel, ms_fraction, ms_scale, tables, EnergyRows, Ta
 use super::microfacet::{self, fresnel_dielectric};
 use super::{luminance, Bsdf, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
 use crate::material::Surface;
+use crate::sampling::Frame;
 use glam::Vec2;
 use crate::Vec3;
 
@@ -47,6 +49,9 @@ pub struct CoatLayer {
     f_ms: f32,
     /// Coat Tint, where it is not white.
     tint: Option<Vec3>,
+    /// The coat's own frame, in the BSDF's local one, where its normal
+    /// is not the shading normal.
+    frame: Option<Frame>,
 }
 
 impl CoatLayer {
@@ -62,7 +67,20 @@ impl CoatLayer {
         let t = tables();
         let (rows, f_ms) = if smooth { (None, 0.0) } else { (Some(t.rows(TableRow::of(roughness))), ms_fraction(t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x) };
         let tint = (s.coat_tint != Vec3::ONE).then(|| s.coat_tint.clamp(Vec3::ZERO, Vec3::ONE));
-        Some(CoatLayer { weight, roughness, alpha, smooth, rows, f_ms, tint })
+        let n = s.coat_normal.normalize_or_zero();
+        let frame = (n.is_finite() && n != Vec3::ZERO && n != Vec3::Z).then(|| Frame::from_normal(n));
+        Some(CoatLayer { weight, roughness, alpha, smooth, rows, f_ms, tint, frame })
+    }
+
+    /// A direction of the BSDF's frame in the coat's.
+    #[inline]
+    fn local(&self, w: Vec3) -> Vec3 {
+        self.frame.map_or(w, |f| f.to_local(w))
+    }
+
+    #[inline]
+    fn world(&self, w: Vec3) -> Vec3 {
+        self.frame.map_or(w, |f| f.to_world(w))
     }
 }
 
@@ -93,7 +111,7 @@ impl<B: Bsdf> WithCoat<B> {
         let Some(layer) = layer else {
             return WithCoat { base, coat: None, base_weight: Vec3::ONE, coat_probability: 0.0 };
         };
-        let mu = wo.z.clamp(0.0, 1.0);
+        let mu = layer.local(wo).z.clamp(0.0, 1.0);
         // A mirror loses nothing to single scattering, and its albedo is
         // the Fresnel reflectance itself.
         let (s, albedo) = match &layer.rows {
@@ -119,15 +137,20 @@ impl<B: Bsdf> WithCoat<B> {
         WithCoat { base, coat: Some(CoatAt { layer, scale: layer.weight * s, reflected }), base_weight, coat_probability }
     }
 
-    /// The coat's lobe alone (0 for a mirror coat, which only sampling finds).
+    /// The coat's lobe alone (0 for a mirror coat, which only sampling
+    /// finds), in its own frame: a solid-angle pdf is the same in any.
     fn coat_eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        match &self.coat {
-            Some(c) if !c.layer.smooth && wo.z > 0.0 && wi.z > 0.0 => {
-                let (lobe, pdf) = microfacet::eval_pdf(wo, wi, c.layer.alpha);
-                (Vec3::splat(c.scale * layer_fresnel(microfacet::cos_half(wo, wi)) * lobe), pdf)
-            }
-            _ => (Vec3::ZERO, 0.0),
+        let Some(c) = &self.coat else { return (Vec3::ZERO, 0.0) };
+        // Above both the shading surface and the coat, as its samples are.
+        if c.layer.smooth || !(wo.z > 0.0 && wi.z > 0.0) {
+            return (Vec3::ZERO, 0.0);
         }
+        let (wo, wi) = (c.layer.local(wo), c.layer.local(wi));
+        if !(wo.z > 0.0 && wi.z > 0.0) {
+            return (Vec3::ZERO, 0.0);
+        }
+        let (lobe, pdf) = microfacet::eval_pdf(wo, wi, c.layer.alpha);
+        (Vec3::splat(c.scale * layer_fresnel(microfacet::cos_half(wo, wi)) * lobe), pdf)
     }
 }
 
@@ -174,15 +197,23 @@ impl<B: Bsdf> Bsdf for WithCoat<B> {
         let p = self.coat_probability;
         let s = match &self.coat {
             Some(c) if u_lobe < p => {
-                if wo.z <= 0.0 {
+                let wo_c = c.layer.local(wo);
+                if wo.z <= 0.0 || wo_c.z <= 0.0 {
+                    return None;
+                }
+                let wi = if c.layer.smooth {
+                    c.layer.world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z))
+                } else {
+                    c.layer.world(microfacet::sample(wo_c, c.layer.alpha, u)?.0)
+                };
+                if wi.z <= 0.0 {
                     return None;
                 }
                 if c.layer.smooth {
                     // The mirror: no other lobe makes this direction.
-                    let f = Vec3::splat(c.layer.weight * fresnel_dielectric(wo.z, COAT_ETA));
-                    return Some(BsdfSample { wi: Vec3::new(-wo.x, -wo.y, wo.z), f, pdf: p, weight: f / p, delta: true });
+                    let f = Vec3::splat(c.layer.weight * fresnel_dielectric(wo_c.z, COAT_ETA));
+                    return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
                 }
-                let wi = microfacet::sample(wo, c.layer.alpha, u)?.0;
                 BsdfSample { wi, f: Vec3::ZERO, pdf: 0.0, weight: Vec3::ZERO, delta: false }
             }
             _ => {
@@ -325,6 +356,31 @@ mod tests {
             let mirror = bsdf.sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
             assert!(mirror.delta && mirror.f.x == mirror.f.y && mirror.f.y == mirror.f.z, "{mirror:?}");
         }
+    }
+
+    /// With a normal map below it, the coat keeps the normal from before
+    /// the map (`Surface::coat_normal`, local to the BSDF's frame): its
+    /// mirror reflects about that normal, its rough lobe is sampled as its
+    /// pdf says, and its highlight follows it, not the shading normal.
+    #[test]
+    fn a_coat_keeps_its_own_normal_under_a_normal_map() {
+        let tilted = Vec3::new(0.3, -0.2, 1.0).normalize();
+        let m = Surface { coat_normal: tilted, ..coated(Vec3::new(0.6, 0.3, 0.2), 0.0, 0.6, 1.0, 0.0) };
+        let wo = dir_at(30.0);
+        let mirror = Coated::new(&m, wo).sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
+        let expected = 2.0 * wo.dot(tilted) * tilted - wo;
+        assert!(mirror.delta && (mirror.wi - expected).length() < 1e-5, "{:?} vs {expected}", mirror.wi);
+        for (coat_roughness, theta) in [(0.3f32, 10.0f32), (0.3, 60.0), (0.6, 45.0)] {
+            let wo = dir_at(theta);
+            let bsdf = Coated::new(&Surface { coat_roughness, ..m }, wo);
+            let r = bsdf_chi2(&bsdf, wo, 1_000_000, 8);
+            assert!(r.p_value > 1e-4, "coat roughness {coat_roughness} θo {theta}: p = {}", r.p_value);
+        }
+        // The rough coat's highlight: strongest about the tilted normal.
+        let bsdf = Coated::new(&Surface { coat_roughness: 0.2, ..m }, wo);
+        let coat_only = |wi: Vec3| bsdf.coat_eval_pdf(wo, wi).0.x;
+        let untilted = Vec3::new(-wo.x, -wo.y, wo.z);
+        assert!(coat_only(expected) > 10.0 * coat_only(untilted), "{} vs {}", coat_only(expected), coat_only(untilted));
     }
 
     /// Roughness to 0, grazing and back-facing directions: finite,
