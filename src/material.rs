@@ -30,6 +30,9 @@ pub struct Surface {
     pub coat_roughness: f32,
     /// Blender's Coat Tint (white: none).
     pub coat_tint: Vec3,
+    /// Blender's Specular Tint (glTF's specularColorFactor): the metal's
+    /// F82 tint.
+    pub specular_tint: Vec3,
     /// The coat's own normal where it differs from the shading normal:
     /// the interpolated normal before a normal map, as Cycles' coat takes
     /// it (Coat Normal unlinked). World space from `shading::surface_at`,
@@ -129,6 +132,9 @@ pub struct Material {
     pub coat_roughness: f32,
     /// Blender's Coat Tint, from a render request (white without).
     pub coat_tint: Vec3,
+    /// KHR_materials_specular specularColorFactor, Blender's Specular Tint
+    /// (white without): the metal's F82 tint.
+    pub specular_tint: Vec3,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,
     /// baseColorFactor's alpha.
@@ -156,6 +162,7 @@ impl Default for Material {
             coat: 0.0,
             coat_roughness: 0.0,
             coat_tint: Vec3::ONE,
+            specular_tint: Vec3::ONE,
             textures: None,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
@@ -185,6 +192,7 @@ impl Material {
             coat_roughness: self.coat_roughness,
             coat_tint: self.coat_tint,
             coat_normal: Vec3::ZERO,
+            specular_tint: self.specular_tint,
         }
     }
 

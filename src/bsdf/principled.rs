@@ -6,8 +6,11 @@
 //!
 //! * f_ggx = D G2 / (4 cosθo cosθi): GGX with α = roughness², height-correlated
 //!   Smith masking, sampled by visible normals (microfacet.rs).
-//! * Metal (weight m): Fresnel-Schlick with F0 = base colour — Cycles' F82-tint
-//!   model with a white tint.
+//! * Metal (weight m): Cycles' F82-tint model, F0 = base colour: Schlick's
+//!   F0 + (1 − F0)(1 − μ)^5 less b·μ(1 − μ)^6, with b set so that at
+//!   μ = 1/7 (about 82°) it is Schlick's value × Blender's Specular Tint
+//!   (glTF's specularColorFactor, which Blender's exporter writes from it):
+//!   b = F_schlick(1/7) · (1 − tint) · 7/(6/7)^6. A white tint is Schlick's.
 //! * Dielectric (weight 1 − m): exact Fresnel at IOR 1.5 over a Lambert base
 //!   that gets what the specular layer does not reflect, 1 − E_layer(μo), so a
 //!   white dielectric reflects all the light at every angle.
@@ -48,6 +51,40 @@ pub struct PrincipledBsdf {
     pub glossy_probability: f32,
     /// The lobes' expected reflectance at wo (their sampling weights).
     reflectance: f32,
+    /// The metal's F82-tint term (zero: Schlick's Fresnel alone).
+    f82_b: Vec3,
+}
+
+/// b of the F82-tint model for F0 and a Specular Tint: F(1/7) is Schlick's
+/// there × the tint: 0 for a white tint.
+fn f82_tint_b(f0: Vec3, tint: Vec3) -> Vec3 {
+    let tint = tint.clamp(Vec3::ZERO, Vec3::ONE);
+    if tint == Vec3::ONE {
+        return Vec3::ZERO;
+    }
+    // μ(1 − μ)^6 at μ = 1/7, where it peaks: (1/7)(6/7)^6.
+    let f = 6.0f32 / 7.0;
+    let schlick = f0 + (Vec3::ONE - f0) * f.powi(5);
+    schlick * (Vec3::ONE - tint) * (7.0 / f.powi(6))
+}
+
+/// The metal's cosine-weighted mean Fresnel, 2∫F μ dμ: Schlick's less
+/// b·2∫μ²(1 − μ)^6 dμ = b·2·B(3, 7) = b/126.
+fn metal_average_fresnel(f0: Vec3, f82_b: Vec3) -> Vec3 {
+    let schlick = schlick_average(f0);
+    if f82_b == Vec3::ZERO { schlick } else { schlick - f82_b / 126.0 }
+}
+
+/// The metal's Fresnel at cos θ = `cos`.
+#[inline]
+fn metal_fresnel(f0: Vec3, f82_b: Vec3, cos: f32) -> Vec3 {
+    let schlick = fresnel_schlick(f0, cos);
+    if f82_b == Vec3::ZERO {
+        return schlick;
+    }
+    let (c, m) = (cos.clamp(0.0, 1.0), 1.0 - cos.clamp(0.0, 1.0));
+    let m2 = m * m;
+    (schlick - f82_b * (c * m2 * m2 * m2)).max(Vec3::ZERO)
 }
 
 /// What of a Principled BSDF depends on the surface alone, not on wo:
@@ -74,6 +111,8 @@ pub struct PrincipledLobes {
     /// luminance(F_avg) of the metal and luminance(base), for the lobe choice.
     metal_reflectance: f32,
     base_luminance: f32,
+    /// The F82-tint term's b (zero for a white Specular Tint).
+    f82_b: Vec3,
 }
 
 impl PrincipledLobes {
@@ -86,12 +125,14 @@ impl PrincipledLobes {
         // the tables' exact ends, like s itself).
         let ior_ratio = (m.ior - 1.0) / (m.ior + 1.0) / 0.2;
         let (smooth, pure_lambert) = (alpha * alpha <= SMOOTH_ALPHA_SQ, m.is_pure_lambert());
+        let f82_b = f82_tint_b(base, m.specular_tint);
+        let metal_average = metal_average_fresnel(base, f82_b);
         let (f_ms_metal, f_ms_dielectric) = if pure_lambert || smooth {
             (Vec3::ZERO, 0.0)
         } else {
             let t = tables();
             let e_avg = t.e_avg(roughness);
-            (ms_fraction(e_avg, schlick_average(base)), ms_fraction(e_avg, Vec3::splat(t.dielectric_f_avg)).x)
+            (ms_fraction(e_avg, metal_average), ms_fraction(e_avg, Vec3::splat(t.dielectric_f_avg)).x)
         };
         PrincipledLobes {
             base,
@@ -106,8 +147,9 @@ impl PrincipledLobes {
             multiscatter: m.multiscatter,
             f_ms_metal,
             f_ms_dielectric,
-            metal_reflectance: luminance(schlick_average(base)),
+            metal_reflectance: luminance(metal_average),
             base_luminance: luminance(base),
+            f82_b,
         }
     }
 
@@ -131,7 +173,7 @@ impl PrincipledBsdf {
         let mu = wo.z.clamp(0.0, 1.0);
         if m.pure_lambert {
             // No glossy lobe, nothing to look up.
-            return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0, reflectance: m.base_luminance };
+            return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0, reflectance: m.base_luminance, f82_b: Vec3::ZERO };
         }
         // A mirror loses nothing to single scattering and its layer albedo
         // is the Fresnel reflectance itself.
@@ -166,7 +208,7 @@ impl PrincipledBsdf {
         if w_glossy > 0.0 && w_diffuse > 0.0 {
             glossy_probability = glossy_probability.max(SPEC_MIN_SHARE * (1.0 - roughness) * (1.0 - roughness));
         }
-        PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal, s_dielectric, diffuse_weight, glossy_probability, reflectance: w_glossy + w_diffuse }
+        PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal, s_dielectric, diffuse_weight, glossy_probability, reflectance: w_glossy + w_diffuse, f82_b: m.f82_b }
     }
 
     /// Expected reflectance at wo: what a coat above weighs it by.
@@ -178,7 +220,7 @@ impl PrincipledBsdf {
     /// A lobe of weight 0 (a pure metal's dielectric, a dielectric's metal)
     /// is not evaluated: the exact Fresnel was a tenth of a metal's shading.
     fn glossy_fresnel(&self, cos_h: f32) -> Vec3 {
-        let metal = if self.metallic > 0.0 { self.metallic * self.s_metal * fresnel_schlick(self.base, cos_h) } else { Vec3::ZERO };
+        let metal = if self.metallic > 0.0 { self.metallic * self.s_metal * metal_fresnel(self.base, self.f82_b, cos_h) } else { Vec3::ZERO };
         let dielectric_weight = (1.0 - self.metallic) * self.specular;
         let dielectric = if dielectric_weight > 0.0 { dielectric_weight * self.s_dielectric * layer_fresnel(cos_h) } else { 0.0 };
         metal + Vec3::splat(dielectric)
@@ -235,5 +277,40 @@ impl PrincipledBsdf {
         let (f, pdf) = self.evaluate(wo, wi);
         let weight = f * (wi.z / pdf);
         (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The F82-tint Fresnel is Schlick's × the tint at μ = 1/7, Schlick's
+    /// itself at normal and grazing incidence, never negative (clamped, as
+    /// Cycles saturates it), and its cosine-weighted mean is Schlick's less
+    /// b/126.
+    #[test]
+    fn the_f82_tint_fresnel_is_schlicks_times_the_tint_at_82_degrees() {
+        assert_eq!(f82_tint_b(Vec3::splat(0.5), Vec3::ONE), Vec3::ZERO);
+        for f0 in [Vec3::new(1.0, 0.78, 0.34), Vec3::new(0.04, 0.5, 0.95), Vec3::ZERO] {
+            for tint in [Vec3::new(0.3, 0.6, 1.0), Vec3::ZERO, Vec3::splat(0.9)] {
+                let b = f82_tint_b(f0, tint);
+                let at = |c: f32| metal_fresnel(f0, b, c);
+                let close = |a: Vec3, e: Vec3| (a - e).abs().max_element() < 1e-5;
+                assert!(close(at(1.0 / 7.0), fresnel_schlick(f0, 1.0 / 7.0) * tint), "{f0} {tint}: {}", at(1.0 / 7.0));
+                assert!(close(at(1.0), f0) && close(at(0.0), Vec3::ONE));
+                let n = 20_000;
+                let mut mean = Vec3::ZERO;
+                for i in 0..n {
+                    let c = (i as f32 + 0.5) / n as f32;
+                    assert!(at(c).min_element() >= 0.0);
+                    // A dark tint over a small F0 takes the model below 0
+                    // past 82°, where it is clamped; the mean (Cycles' F_ss
+                    // too) is the unclamped model's.
+                    let unclamped = fresnel_schlick(f0, c) - b * (c * (1.0 - c).powi(6));
+                    mean += unclamped * (2.0 * c / n as f32);
+                }
+                assert!((mean - metal_average_fresnel(f0, b)).abs().max_element() < 1e-4, "{f0} {tint}: {mean} vs {}", metal_average_fresnel(f0, b));
+            }
+        }
     }
 }

@@ -639,6 +639,10 @@ impl<'a> Builder<'a> {
         if self.images.unsupported_sets > 0 {
             w.push(format!("{} texture reference(s) use a texture coordinate set above 1: TEXCOORD_1 is read instead", self.images.unsupported_sets));
         }
+        let tinted = self.root.materials.iter().filter(|m| tints_dielectric_specular(m)).count();
+        if tinted > 0 {
+            w.push(format!("{tinted} material(s) tint a non-metal's specular layer (specularColorFactor, Blender's Specular Tint), which is not rendered yet: only metals take the tint"));
+        }
         let coat_textures = self.root.materials.iter().filter(|m| has_coat_texture(m)).count();
         if coat_textures > 0 {
             w.push(format!("{coat_textures} material(s) have clearcoat textures, which are not read yet: their coat factors are used"));
@@ -724,6 +728,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         .and_then(|e| e.specular.as_ref())
         .map_or(1.0, |s| finite_or(s.specular_factor.0, 1.0).clamp(0.0, 1.0));
     let extensions = m.extensions.as_ref();
+    let specular_tint = extensions.and_then(|e| e.specular.as_ref()).map_or(Vec3::ONE, |s| unit_colour(s.specular_color_factor.0, 1.0));
     let transmission = extensions.and_then(|e| e.transmission.as_ref()).map_or(0.0, |t| finite_or(t.transmission_factor.0, 0.0).clamp(0.0, 1.0));
     // KHR_materials_ior allows 1 and up; anything else is its default.
     let ior = extensions.and_then(|e| e.ior.as_ref()).map(|i| i.ior.0).filter(|i| i.is_finite() && *i >= 1.0).unwrap_or(1.5);
@@ -753,7 +758,15 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         coat,
         coat_roughness,
         coat_tint: Vec3::ONE,
+        specular_tint,
     }
+}
+
+/// Whether a material is not wholly metal and has a specularColorFactor
+/// that is not white.
+fn tints_dielectric_specular(m: &gltf::json::Material) -> bool {
+    let tint = m.extensions.as_ref().and_then(|e| e.specular.as_ref()).map(|s| s.specular_color_factor.0);
+    tint.is_some_and(|t| t.iter().any(|&c| c != 1.0)) && m.pbr_metallic_roughness.metallic_factor.0 < 1.0
 }
 
 /// Whether a material's KHR_materials_clearcoat names a texture.

@@ -199,6 +199,24 @@ fn clearcoat_factors() {
     assert!(!load(&d).unwrap().materials[0].is_coated());
 }
 
+/// KHR_materials_specular's specularColorFactor is Blender's Specular
+/// Tint: read (clamped) as a metal's F82 tint; on a material that is not
+/// wholly metal a warning says its specular layer's tint is not rendered.
+#[test]
+fn specular_colour_is_the_metal_tint() {
+    let mut d = base_doc();
+    assert_eq!(load(&d).unwrap().materials[0].specular_tint, Vec3::ONE);
+    d["extensionsUsed"] = json!(["KHR_materials_specular"]);
+    d["materials"][0]["pbrMetallicRoughness"] = json!({"metallicFactor": 1.0});
+    d["materials"][0]["extensions"] = json!({"KHR_materials_specular": {"specularColorFactor": [0.3, 1.6, -1.0]}});
+    let s = load(&d).unwrap();
+    assert_eq!(s.materials[0].specular_tint, Vec3::new(0.3, 1.0, 0.0));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    d["materials"][0]["pbrMetallicRoughness"] = json!({"metallicFactor": 0.5});
+    let s = load(&d).unwrap();
+    assert!(s.warnings.iter().any(|w| w.contains("tint a non-metal's specular layer")), "{:?}", s.warnings);
+}
+
 #[test]
 fn factors_outside_gltf_ranges_are_clamped() {
     let mut d = base_doc();
