@@ -11,6 +11,14 @@
 //!   μ = 1/7 (about 82°) it is Schlick's value × Blender's Specular Tint
 //!   (glTF's specularColorFactor, which Blender's exporter writes from it):
 //!   b = F_schlick(1/7) · (1 − tint) · 7/(6/7)^6. A white tint is Schlick's.
+//! * Specular Tint on the dielectric layer, as Cycles' generalized Schlick
+//!   with a negative exponent: F_t = mix(F0·tint, 1, s), s = (F − F0)/(1 − F0)
+//!   along the exact curve F — per channel F_t = (1 + k)·F − k with
+//!   k = F0 (1 − tint)/(1 − F0). Being affine in F, so are its mean (for the
+//!   compensation, per channel) and the layer's albedo: E_t = S_t·E·((1 + k)·A
+//!   − k), A = E_layer/(S·E) the table's albedo of the untinted lobe scaled
+//!   to white; the base gets 1 − max over channels of E_t (Cycles'
+//!   `closure_layering_weight`).
 //! * Dielectric (weight 1 − m): exact Fresnel at IOR 1.5 over a Lambert base
 //!   that gets what the specular layer does not reflect, 1 − E_layer(μo), so a
 //!   white dielectric reflects all the light at every angle.
@@ -51,8 +59,29 @@ pub struct PrincipledBsdf {
     pub glossy_probability: f32,
     /// The lobes' expected reflectance at wo (their sampling weights).
     reflectance: f32,
-    /// The metal's F82-tint term (zero: Schlick's Fresnel alone).
+    /// Specular Tint's terms, None where it is white: an untinted
+    /// surface writes and tests one tag (a tinted one is rare).
+    tints: Option<Tints>,
+}
+
+/// A Specular Tint at one wo: the metal's F82 term b, the dielectric
+/// layer's k, and that layer's multiple-scattering scale per channel.
+#[derive(Clone, Copy, Debug)]
+struct Tints {
     f82_b: Vec3,
+    spec_k: Vec3,
+    s_tinted: Vec3,
+}
+
+/// k of a tinted dielectric layer, F_t = (1 + k)·F − k: F0·(1 − tint)/(1 −
+/// F0) at the tables' IOR 1.5; zero for a white tint.
+fn dielectric_tint_k(tint: Vec3) -> Vec3 {
+    let tint = tint.clamp(Vec3::ZERO, Vec3::ONE);
+    if tint == Vec3::ONE {
+        return Vec3::ZERO;
+    }
+    let f0 = ((DIELECTRIC_ETA - 1.0) / (DIELECTRIC_ETA + 1.0)).powi(2);
+    (Vec3::ONE - tint) * (f0 / (1.0 - f0))
 }
 
 /// b of the F82-tint model for F0 and a Specular Tint: F(1/7) is Schlick's
@@ -111,8 +140,10 @@ pub struct PrincipledLobes {
     /// luminance(F_avg) of the metal and luminance(base), for the lobe choice.
     metal_reflectance: f32,
     base_luminance: f32,
-    /// The F82-tint term's b (zero for a white Specular Tint).
-    f82_b: Vec3,
+    /// A Specular Tint's terms: the metal's b, the dielectric layer's k
+    /// and F_ms per channel (`s_tinted` of `Tints` holds that F_ms here);
+    /// None for a white tint.
+    tints: Option<Tints>,
 }
 
 impl PrincipledLobes {
@@ -127,12 +158,14 @@ impl PrincipledLobes {
         let (smooth, pure_lambert) = (alpha * alpha <= SMOOTH_ALPHA_SQ, m.is_pure_lambert());
         let f82_b = f82_tint_b(base, m.specular_tint);
         let metal_average = metal_average_fresnel(base, f82_b);
-        let (f_ms_metal, f_ms_dielectric) = if pure_lambert || smooth {
-            (Vec3::ZERO, 0.0)
+        let spec_k = dielectric_tint_k(m.specular_tint);
+        let (f_ms_metal, f_ms_dielectric, f_ms_tinted) = if pure_lambert || smooth {
+            (Vec3::ZERO, 0.0, Vec3::ZERO)
         } else {
             let t = tables();
             let e_avg = t.e_avg(roughness);
-            (ms_fraction(e_avg, metal_average), ms_fraction(e_avg, Vec3::splat(t.dielectric_f_avg)).x)
+            let tinted_average = (Vec3::ONE + spec_k) * t.dielectric_f_avg - spec_k;
+            (ms_fraction(e_avg, metal_average), ms_fraction(e_avg, Vec3::splat(t.dielectric_f_avg)).x, ms_fraction(e_avg, tinted_average))
         };
         PrincipledLobes {
             base,
@@ -149,7 +182,7 @@ impl PrincipledLobes {
             f_ms_dielectric,
             metal_reflectance: luminance(metal_average),
             base_luminance: luminance(base),
-            f82_b,
+            tints: (m.specular_tint.clamp(Vec3::ZERO, Vec3::ONE) != Vec3::ONE).then_some(Tints { f82_b, spec_k, s_tinted: f_ms_tinted }),
         }
     }
 
@@ -173,7 +206,7 @@ impl PrincipledBsdf {
         let mu = wo.z.clamp(0.0, 1.0);
         if m.pure_lambert {
             // No glossy lobe, nothing to look up.
-            return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0, reflectance: m.base_luminance, f82_b: Vec3::ZERO };
+            return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0, reflectance: m.base_luminance, tints: None };
         }
         // A mirror loses nothing to single scattering and its layer albedo
         // is the Fresnel reflectance itself.
@@ -198,6 +231,30 @@ impl PrincipledBsdf {
                 (Vec3::ONE, 1.0, layer / (s_dielectric * e).max(f32::MIN_POSITIVE))
             }
         };
+        // A tinted layer's albedo per channel (module doc): the base gets
+        // what its brightest channel leaves, and lobes are chosen by it.
+        let (layer, tints) = match m.tints {
+            None => (layer, None),
+            Some(Tints { f82_b, spec_k: k, s_tinted: f_ms_tinted }) => {
+                let (layer, s_tinted) = if smooth {
+                    (((Vec3::ONE + k) * layer - k).max(Vec3::ZERO).max_element(), Vec3::ONE)
+                } else {
+                    let (e, _) = match &m.rows {
+                        Some(rows) => rows.at(mu),
+                        None => tables().e_and_layer_in(m.row, mu),
+                    };
+                    let (white, s_t) = if m.multiscatter {
+                        (layer / (s_dielectric * e).max(f32::MIN_POSITIVE), ms_scale(e, f_ms_tinted))
+                    } else {
+                        (layer, Vec3::ONE)
+                    };
+                    let tinted = (Vec3::ONE + k) * white - k;
+                    let albedo = if m.multiscatter { s_t * e * tinted } else { tinted };
+                    (albedo.max(Vec3::ZERO).max_element(), s_t)
+                };
+                (layer, Some(Tints { f82_b, spec_k: k, s_tinted }))
+            }
+        };
         let diffuse_weight = (1.0 - metallic) * (1.0 - specular * layer).max(0.0);
         // Lobe choice by expected reflectance at this wo: the metal's ≈ its
         // average Fresnel, the dielectric layer's E_layer. As in the seed
@@ -208,7 +265,7 @@ impl PrincipledBsdf {
         if w_glossy > 0.0 && w_diffuse > 0.0 {
             glossy_probability = glossy_probability.max(SPEC_MIN_SHARE * (1.0 - roughness) * (1.0 - roughness));
         }
-        PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal, s_dielectric, diffuse_weight, glossy_probability, reflectance: w_glossy + w_diffuse, f82_b: m.f82_b }
+        PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal, s_dielectric, diffuse_weight, glossy_probability, reflectance: w_glossy + w_diffuse, tints }
     }
 
     /// Expected reflectance at wo: what a coat above weighs it by.
@@ -220,8 +277,13 @@ impl PrincipledBsdf {
     /// A lobe of weight 0 (a pure metal's dielectric, a dielectric's metal)
     /// is not evaluated: the exact Fresnel was a tenth of a metal's shading.
     fn glossy_fresnel(&self, cos_h: f32) -> Vec3 {
-        let metal = if self.metallic > 0.0 { self.metallic * self.s_metal * metal_fresnel(self.base, self.f82_b, cos_h) } else { Vec3::ZERO };
         let dielectric_weight = (1.0 - self.metallic) * self.specular;
+        if let Some(t) = &self.tints {
+            let metal = if self.metallic > 0.0 { self.metallic * self.s_metal * metal_fresnel(self.base, t.f82_b, cos_h) } else { Vec3::ZERO };
+            let dielectric = if dielectric_weight > 0.0 { ((Vec3::ONE + t.spec_k) * layer_fresnel(cos_h) - t.spec_k).max(Vec3::ZERO) } else { Vec3::ZERO };
+            return metal + dielectric_weight * t.s_tinted * dielectric;
+        }
+        let metal = if self.metallic > 0.0 { self.metallic * self.s_metal * fresnel_schlick(self.base, cos_h) } else { Vec3::ZERO };
         let dielectric = if dielectric_weight > 0.0 { dielectric_weight * self.s_dielectric * layer_fresnel(cos_h) } else { 0.0 };
         metal + Vec3::splat(dielectric)
     }
@@ -283,6 +345,22 @@ impl PrincipledBsdf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A tinted dielectric layer reflects mix(F0·tint, 1, s) per channel:
+    /// F0·tint head-on, 1 at grazing, and (1 + k)·F − k between, F the
+    /// untinted exact Fresnel (a smooth layer over black shows it alone).
+    #[test]
+    fn a_tinted_dielectric_layer_is_generalized_schlick() {
+        let tint = Vec3::new(0.2, 0.5, 1.0);
+        let m = Surface { base_color: Vec3::ZERO, metallic: 0.0, roughness: 0.0, specular_tint: tint, ..crate::material::Material::default().surface() };
+        let k = dielectric_tint_k(tint);
+        for (theta, expected) in [(0.0f32, 0.04 * tint), (60.0, (Vec3::ONE + k) * fresnel_dielectric(0.5, 1.5) - k)] {
+            let wo = Vec3::new(theta.to_radians().sin(), 0.0, theta.to_radians().cos());
+            let s = PrincipledBsdf::new(&m, wo).sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
+            assert!(s.delta && (s.f - expected).abs().max_element() < 1e-5, "θo {theta}: {} vs {expected}", s.f);
+        }
+        assert_eq!(dielectric_tint_k(Vec3::ONE), Vec3::ZERO);
+    }
 
     /// The F82-tint Fresnel is Schlick's × the tint at μ = 1/7, Schlick's
     /// itself at normal and grazing incidence, never negative (clamped, as

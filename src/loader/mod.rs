@@ -639,10 +639,6 @@ impl<'a> Builder<'a> {
         if self.images.unsupported_sets > 0 {
             w.push(format!("{} texture reference(s) use a texture coordinate set above 1: TEXCOORD_1 is read instead", self.images.unsupported_sets));
         }
-        let tinted = self.root.materials.iter().filter(|m| tints_dielectric_specular(m)).count();
-        if tinted > 0 {
-            w.push(format!("{tinted} material(s) tint a non-metal's specular layer (specularColorFactor, Blender's Specular Tint), which is not rendered yet: only metals take the tint"));
-        }
         let coat_textures = self.root.materials.iter().filter(|m| has_coat_texture(m)).count();
         if coat_textures > 0 {
             w.push(format!("{coat_textures} material(s) have clearcoat textures, which are not read yet: their coat factors are used"));
@@ -760,13 +756,6 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         coat_tint: Vec3::ONE,
         specular_tint,
     }
-}
-
-/// Whether a material is not wholly metal and has a specularColorFactor
-/// that is not white.
-fn tints_dielectric_specular(m: &gltf::json::Material) -> bool {
-    let tint = m.extensions.as_ref().and_then(|e| e.specular.as_ref()).map(|s| s.specular_color_factor.0);
-    tint.is_some_and(|t| t.iter().any(|&c| c != 1.0)) && m.pbr_metallic_roughness.metallic_factor.0 < 1.0
 }
 
 /// Whether a material's KHR_materials_clearcoat names a texture.

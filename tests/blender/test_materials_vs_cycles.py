@@ -185,12 +185,16 @@ def test_coat_tint_matches_cycles(empty_scene, tmp_path):
     assert z.max() < 5.0, (z.max(), bias)
 
 
-@pytest.mark.parametrize("roughness", [0.2, 0.6])
-def test_specular_tint_of_a_metal_matches_cycles(empty_scene, tmp_path, roughness):
-    """Specular Tint on a metal is Cycles' F82 tint (the colour at grazing
-    angles): it reaches Glint as the exporter's specularColorFactor. The
-    sphere's rim, at grazing angles, shows it most."""
-    sphere_scene(empty_scene, 1.0, roughness, (0.95, 0.64, 0.54), Specular_Tint=(0.3, 0.6, 1.0, 1.0))
+@pytest.mark.parametrize("metallic, roughness", [(1.0, 0.2), (1.0, 0.6), (0.0, 0.05), (0.0, 0.3)])
+def test_specular_tint_matches_cycles(empty_scene, tmp_path, metallic, roughness):
+    """Specular Tint reaches Glint as the exporter's specularColorFactor.
+    On a metal it is Cycles' F82 tint (the colour at grazing angles: the
+    sphere's rim shows it most); on a dielectric it tints the specular
+    layer's F0 (generalized Schlick), which dims the base below by the
+    brightest channel of its albedo."""
+    base = (0.95, 0.64, 0.54) if metallic else (0.2, 0.3, 0.6)
+    tint = (0.3, 0.6, 1.0, 1.0) if metallic else (1.0, 0.5, 0.1, 1.0)
+    sphere_scene(empty_scene, metallic, roughness, base, Specular_Tint=tint)
     z, bias, c, g = compare(empty_scene, tmp_path, 64)
-    print(f"metal with Specular Tint at roughness {roughness}: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
+    print(f"Specular Tint, metallic {metallic} roughness {roughness}: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
     assert z.max() < 5.0, (z.max(), bias)
