@@ -20,7 +20,8 @@ Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
 Through the request: resolution × percentage, the scene camera and what
-glTF cannot say of it (Shift X and Y, Depth of Field), Film › Transparent, Coat Tint, samples, bounces,
+glTF cannot say of it (Shift X and Y, Depth of Field), Film › Transparent (and
+Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, samples, bounces,
 time limit, seed, the World colour, every area light (glTF has none):
 shape, size, world transform, colour and power, and the sizes of the
 point, spot and sun lights. (The camera's Clip Start and End go through
@@ -252,6 +253,9 @@ def render_request(depsgraph, job, width, height):
         request["light_paths"] = settings.light_paths == "ON"
     if scene.render.film_transparent:
         request["transparent_film"] = True
+        cycles = getattr(scene, "cycles", None)
+        if cycles is not None and cycles.film_transparent_glass:
+            request["transparent_glass"] = cycles.film_transparent_roughness
     if scene.camera is not None:
         request["camera"] = scene.camera.name
         lens = camera_lens(scene, scene.camera)

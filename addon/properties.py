@@ -61,6 +61,17 @@ class RENDER_PT_glint_sampling(bpy.types.Panel):
         col.prop(settings, "bsdf")
         col.prop(settings, "light_paths")
         col.prop(settings, "threads")
+        # Film › Transparent, and Cycles' own Transparent Glass settings
+        # (kept in the .blend by Cycles; Glint renders them the same way).
+        render, cycles = context.scene.render, getattr(context.scene, "cycles", None)
+        col.prop(render, "film_transparent")
+        if cycles is not None:
+            sub = col.column()
+            sub.active = render.film_transparent
+            sub.prop(cycles, "film_transparent_glass", text="Transparent Glass")
+            sub = sub.column()
+            sub.active = render.film_transparent and cycles.film_transparent_glass
+            sub.prop(cycles, "film_transparent_roughness", text="Roughness Threshold")
 
 
 # Blender's own panels (output format, dimensions, lights, materials...)

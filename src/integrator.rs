@@ -981,8 +981,13 @@ fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u3
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
 /// light parts that are on (features.rs; a part that is off is not tested
 /// for at all). `first` is what the ray reaches first where the caller
-/// has found it (camera_hits.rs). With it, whether the ray met a surface
-/// (a transparent film's coverage).
+/// has found it (camera_hits.rs). With it, the sample's coverage for a
+/// transparent film: 0 where the camera ray left the scene, 1 where it met
+/// a surface — but with Transparent Glass, where the path went on through
+/// glass alone (transmissions of roughness up to the threshold, as Cycles'
+/// LABEL_TRANSMIT_TRANSPARENT) and then left, 1 − the mean of its
+/// throughput: the World seen through glass becomes transparency rather
+/// than colour.
 #[allow(clippy::too_many_arguments)]
 pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
     ctx: &Context,
@@ -994,7 +999,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     rng: &mut Rng,
     rays: &mut RayCounts,
     first: FirstHit,
-) -> (Vec3, bool) {
+) -> (Vec3, f32) {
     let max_depth = settings.max_depth;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
@@ -1020,6 +1025,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         None => 0,
     });
     rays.camera += 1;
+    // Whether the World this ray may reach is the film's transparency:
+    // the camera ray's own, on a transparent film, and with Transparent
+    // Glass the rays after glass alone.
+    let mut see_through = settings.transparent;
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
     for depth in 0..=max_depth {
@@ -1067,10 +1076,15 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let Some(hit) = hit else {
             // Film › Transparent: the camera does not see the World (it
             // still lights what the camera sees).
-            if seen_kept && !(depth == 0 && settings.transparent) {
+            if seen_kept && !see_through {
                 l += beta * world_seen(ctx, d, &from, settings.mis);
             }
-            return (l, depth > 0);
+            let coverage = match (depth, see_through) {
+                (0, _) => 0.0,
+                (_, true) => 1.0 - (beta.x + beta.y + beta.z) / 3.0,
+                (_, false) => 1.0,
+            };
+            return (l, coverage);
         };
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
@@ -1154,6 +1168,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         let Some(Step { sample: s, wi, origin, beta: next_beta }) = step else { break };
         beta = next_beta;
+        see_through = see_through && settings.transparent_glass.is_some_and(|threshold| s.wi.z < 0.0 && si.surface.roughness <= threshold);
         o = origin;
         d = wi;
         // What the next vertex's Chain starts from; a delta lobe here is
@@ -1174,7 +1189,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         from = Previous { depth: depth + 1, p: si.p, ng: si.ng, light_side: light_side(&si, &bsdf), bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing };
         rays.bounce += 1;
     }
-    (l, true)
+    (l, 1.0)
 }
 
 #[cfg(test)]

@@ -42,6 +42,9 @@ pub struct JobOptions {
     pub light_paths: Option<LightPaths>,
     /// Film › Transparent (`RenderSettings::transparent`).
     pub transparent: Option<bool>,
+    /// Film › Transparent Glass's roughness threshold
+    /// (`RenderSettings::transparent_glass`).
+    pub transparent_glass: Option<f32>,
 }
 
 impl JobOptions {
@@ -66,6 +69,7 @@ impl JobOptions {
             sampler: self.sampler.or(f.sampler),
             light_paths: self.light_paths.or(f.light_paths),
             transparent: self.transparent.or(f.transparent),
+            transparent_glass: self.transparent_glass.or(f.transparent_glass),
         }
     }
 }
@@ -90,6 +94,7 @@ impl From<&RenderRequest> for JobOptions {
             light_paths: r.light_paths.map(|on| if on { LightPaths::On } else { LightPaths::Off }),
             environment: r.environment.clone(),
             transparent: r.transparent_film,
+            transparent_glass: r.transparent_glass,
         }
     }
 }
@@ -179,6 +184,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
             crate::DEFAULT_SCENE_NAME.to_string(),
         ),
     };
+    if options.transparent_glass.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
+        return Err(format!("{name}: transparent glass's roughness threshold must be finite and ≥ 0"));
+    }
     if let Some(b) = options.background {
         if b.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
             return Err(format!("{name}: background must be finite and ≥ 0"));
@@ -245,6 +253,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         light_tracing: true,
         strategies: Default::default(),
         transparent: options.transparent.unwrap_or(false),
+        transparent_glass: options.transparent_glass,
     };
     Ok(Job { scene, settings, budget: Budget { samples, time } })
 }
@@ -265,5 +274,19 @@ mod tests {
         let bad = [CoatTint { material: "red".into(), tint: [0.9, f32::NAN, 0.2] }];
         let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { coat_tints: &bad, ..SceneExtras::default() }).err().unwrap();
         assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+    }
+
+    /// Transparent Glass's roughness threshold is a roughness: a negative
+    /// or non-finite one is one line naming the file.
+    #[test]
+    fn a_bad_transparent_glass_threshold_is_an_error() {
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        for bad in [-0.1, f32::NAN, f32::INFINITY] {
+            let options = JobOptions { transparent: Some(true), transparent_glass: Some(bad), ..JobOptions::default() };
+            let err = prepare(Some(&path), &options, SceneExtras::default()).err().unwrap();
+            assert!(err.contains("cornell-box.gltf") && err.contains("transparent glass") && !err.contains('\n'), "{err}");
+        }
+        let options = JobOptions { transparent: Some(true), transparent_glass: Some(0.1), ..JobOptions::default() };
+        assert_eq!(prepare(Some(&path), &options, SceneExtras::default()).unwrap().settings.transparent_glass, Some(0.1));
     }
 }

@@ -99,6 +99,11 @@ struct RenderOptions {
     /// coverage, its colour premultiplied [default: the request's, else off].
     #[arg(long)]
     transparent_film: bool,
+    /// Blender's Film › Transparent Glass, with its Roughness Threshold:
+    /// with --transparent-film, the World seen through glass no rougher
+    /// than this is transparency too [default: the request's, else off].
+    #[arg(long, value_name = "ROUGHNESS")]
+    transparent_glass: Option<f32>,
     /// World as an equirectangular environment image (HDR, EXR, PNG, JPEG),
     /// mapped as Blender's Environment Texture; replaces --background.
     #[arg(long)]
@@ -147,6 +152,7 @@ impl RenderOptions {
             two_sided_emission: None,
             features: self.features.as_deref().map(|f| if f == "all" { FeatureMode::All } else { FeatureMode::Auto }),
             transparent: self.transparent_film.then_some(true),
+            transparent_glass: self.transparent_glass,
         }
     }
 }

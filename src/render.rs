@@ -78,6 +78,9 @@ pub struct RenderSettings {
     /// which still lights the scene, and the film keeps each pixel's
     /// coverage as alpha.
     pub transparent: bool,
+    /// Film › Transparent Glass (with `transparent`): the World seen
+    /// through glass of roughness up to this is transparency too.
+    pub transparent_glass: Option<f32>,
 }
 
 /// Whether light subpaths are traced (light_paths.rs).
@@ -363,13 +366,13 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     }
                     for (i, ((sum, covered), (rng, ray))) in sums[..tile_pixels].iter_mut().zip(covered.iter_mut()).zip(rngs.iter_mut()).enumerate() {
                         let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
-                        let (l, meets_surface) = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first);
+                        let (l, coverage) = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first);
                         if sample_fits(l) {
                             *sum += l;
                         } else {
                             stats.discarded += 1;
                         }
-                        *covered += meets_surface as u32 as f32;
+                        *covered += coverage;
                     }
                 }
                 let band = (y0 / TILE) as usize;

@@ -89,6 +89,10 @@ pub struct RenderRequest {
     /// Blender's Film › Transparent: the camera does not see the World and
     /// the EXR's alpha is each pixel's coverage.
     pub transparent_film: Option<bool>,
+    /// Film › Transparent Glass, with its Roughness Threshold: on a
+    /// transparent film, the World seen through glass no rougher than
+    /// this is transparency too.
+    pub transparent_glass: Option<f32>,
 }
 
 /// Blender's camera beyond glTF: Shift X and Y, and Depth of Field.

@@ -340,6 +340,7 @@ fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_
         request["environment"] = json!({"image": image, "strength": 2.0, "rotation": 0.5});
         request["lens"] = json!({"shift": [0.1, -0.05], "aperture": {"radius": 0.02, "focus_distance": 3.5, "blades": 6, "rotation": 0.3, "ratio": 1.5}});
         request["transparent_film"] = json!(true);
+        request["transparent_glass"] = json!(0.1);
     }
     (scene, request)
 }

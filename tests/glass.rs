@@ -110,3 +110,38 @@ fn coloured_glass_tints_by_its_base_colour() {
     // Measured within 0.001 of the series; 4000 paths a pixel.
     assert!((mean - expected).abs().max_element() < 0.005, "{mean} vs {expected}");
 }
+
+/// Film › Transparent Glass: the World seen through clear glass alone is
+/// transparency, not colour. The invisible sphere above (colour + what it
+/// lets through = 1 everywhere) then has alpha = its colour in every
+/// pixel, in expectation: what its surface reflects stays colour, what
+/// goes straight through both faces (1 − F)² ≈ 0.92 at its centre becomes
+/// transparency; beside it, alpha and colour are 0. Without the option the
+/// sphere covers its pixels: alpha 1 and colour 1. A rough sphere above
+/// the threshold covers them too.
+#[test]
+fn transparent_glass_turns_the_world_seen_through_glass_into_alpha() {
+    use glint::render::{render_pass, Film};
+    use std::sync::atomic::AtomicBool;
+    let run = |roughness: f32, glass_threshold: Option<f32>| {
+        let mut scene = Scene::new(sphere(Vec3::ZERO, 1.0, 48, 96, 0), vec![glass(roughness)], common::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8));
+        scene.background = Vec3::ONE;
+        let s = RenderSettings { mis: true, transparent: true, transparent_glass: glass_threshold, ..settings(24, 24, 256, 64, 3) };
+        let mut film = Film::new(24, 24);
+        render_pass(&Context::new(&scene).0, &s, &mut film, 0..256, &AtomicBool::new(false), &|_| {}).unwrap();
+        (film.mean(), film.alpha().unwrap())
+    };
+    let centre = |v: &[f32]| (9..15).flat_map(|y| (9..15).map(move |x| (x, y))).map(|(x, y)| v[y * 24 + x]).sum::<f32>() / 36.0;
+    let (img, alpha) = run(0.0, Some(0.1));
+    let colour: Vec<f32> = img.iter().map(|p| p.x).collect();
+    let differences: Vec<f32> = colour.iter().zip(&alpha).map(|(c, a)| c - a).collect();
+    let (mean, se) = mean_and_standard_error(&differences);
+    assert!(mean.abs() < 5.0 * se + 0.003, "colour − alpha: {mean} ± {se}");
+    let through = centre(&alpha);
+    assert!((0.07..0.12).contains(&through), "alpha through the sphere's centre: {through}");
+    assert!(alpha[0] == 0.0 && colour[0] == 0.0, "beside the sphere: alpha {} colour {}", alpha[0], colour[0]);
+    let (img, alpha) = run(0.0, None);
+    assert!(centre(&alpha) == 1.0 && (img[12 * 24 + 12].x - 1.0).abs() < 0.1, "opaque glass: alpha {}", centre(&alpha));
+    let (_, alpha) = run(0.3, Some(0.1));
+    assert!(centre(&alpha) == 1.0, "glass rougher than the threshold: alpha {}", centre(&alpha));
+}
