@@ -33,6 +33,14 @@ fn check_size(width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
     Ok(())
 }
 
+/// A file's alpha, where it has one, is one value a pixel.
+fn check_alpha(path: &Path, pixels: &[Vec3], alpha: Option<&[f32]>) -> Result<()> {
+    if let Some(a) = alpha.filter(|a| a.len() != pixels.len()) {
+        bail!("{}: {} alpha values for {} pixels", path.display(), a.len(), pixels.len());
+    }
+    Ok(())
+}
+
 /// Linear float RGBA EXR (alpha 1, or a transparent film's coverage with
 /// the colour premultiplied by it), scene-referred radiance: run-length
 /// coded 64×64 tiles (exr's default), in increasing order, so that the
@@ -41,9 +49,7 @@ fn check_size(width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3], alpha: Option<&[f32]>) -> Result<()> {
     use exr::prelude::*;
     check_size(width, height, pixels)?;
-    if alpha.is_some_and(|a| a.len() != pixels.len()) {
-        anyhow::bail!("{}: {} alpha values for {} pixels", path.display(), alpha.map_or(0, <[f32]>::len), pixels.len());
-    }
+    check_alpha(path, pixels, alpha)?;
     let channels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
         let i = y * width as usize + x;
         let p = pixels[i];
@@ -66,9 +72,7 @@ pub fn srgb_encode(linear: f32) -> f32 {
 /// is covered).
 pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3], alpha: Option<&[f32]>) -> Result<()> {
     check_size(width, height, pixels)?;
-    if alpha.is_some_and(|a| a.len() != pixels.len()) {
-        anyhow::bail!("{}: {} alpha values for {} pixels", path.display(), alpha.map_or(0, <[f32]>::len), pixels.len());
-    }
+    check_alpha(path, pixels, alpha)?;
     let byte = |c: f32| (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
     let (bytes, colour): (Vec<u8>, _) = match alpha {
         None => (pixels.iter().flat_map(|p| p.to_array()).map(|c| byte(srgb_encode(c))).collect(), image::ColorType::Rgb8),

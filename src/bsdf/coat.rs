@@ -24,7 +24,7 @@
 //!
 //! Only kernels for scenes with a coated material run this (features.rs).
 
-use super::energy::{layer_fresnel, ms_fraction, ms_scale, tables, EnergyRows, TableRow};
+use super::energy::{layer_fresnel, ms_fraction, ms_scale, tables, EnergyRows, TableRow, DIELECTRIC_ETA};
 use super::microfacet::{self, fresnel_dielectric};
 use super::{luminance, Bsdf, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
 use crate::material::Surface;
@@ -32,8 +32,9 @@ use crate::sampling::Frame;
 use glam::Vec2;
 use crate::Vec3;
 
-/// The coat's IOR: glTF's (KHR_materials_clearcoat has no other).
-const COAT_ETA: f32 = 1.5;
+/// The coat's IOR: glTF's (KHR_materials_clearcoat has no other), the
+/// one the energy tables and `layer_fresnel` hold.
+const COAT_ETA: f32 = DIELECTRIC_ETA;
 
 /// What of a coat depends on the surface alone, not on wo.
 #[derive(Clone, Copy, Debug)]
@@ -43,7 +44,9 @@ pub struct CoatLayer {
     alpha: f32,
     /// α² ≤ SMOOTH_ALPHA_SQ: a perfect mirror.
     smooth: bool,
-    /// The energy tables along μ at the coat's roughness.
+    /// The coat's roughness in the energy tables, and for a material
+    /// that keeps its layer (`for_material`) the tables along μ there.
+    row: TableRow,
     rows: Option<EnergyRows>,
     /// F_ms of the coat, for its multiple-scattering scale.
     f_ms: f32,
@@ -55,7 +58,9 @@ pub struct CoatLayer {
 }
 
 impl CoatLayer {
-    /// None where the surface has no coat.
+    /// None where the surface has no coat. Built at every hit of a
+    /// textured surface: its energy rows are not interpolated here (the
+    /// tables are read in place), as `PrincipledLobes::new`'s.
     pub fn of(s: &Surface) -> Option<Self> {
         let weight = s.coat.clamp(0.0, 1.0);
         if !(weight > 0.0) {
@@ -65,33 +70,61 @@ impl CoatLayer {
         let alpha = roughness * roughness;
         let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
         let t = tables();
-        let (rows, f_ms) = if smooth { (None, 0.0) } else { (Some(t.rows(TableRow::of(roughness))), ms_fraction(t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x) };
+        let f_ms = if smooth { 0.0 } else { ms_fraction(t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x };
         let tint = (s.coat_tint != Vec3::ONE).then(|| s.coat_tint.clamp(Vec3::ZERO, Vec3::ONE));
         let n = s.coat_normal.normalize_or_zero();
         let frame = (n.is_finite() && n != Vec3::ZERO && n != Vec3::Z).then(|| Frame::from_normal(n));
-        Some(CoatLayer { weight, roughness, alpha, smooth, rows, f_ms, tint, frame })
+        Some(CoatLayer { weight, roughness, alpha, smooth, row: TableRow::of(roughness), rows: None, f_ms, tint, frame })
+    }
+
+    /// `of`, for a material whose surface is the same at every point: with
+    /// its own energy rows, read along μ alone (the same numbers).
+    fn for_material(s: &Surface) -> Option<Self> {
+        CoatLayer::of(s).map(|c| CoatLayer { rows: (!c.smooth).then(|| tables().rows(c.row)), ..c })
+    }
+
+    /// E(μ) and E_layer(μ) at the coat's roughness.
+    fn energies(&self, mu: f32) -> (f32, f32) {
+        match &self.rows {
+            Some(rows) => rows.at(mu),
+            None => tables().e_and_layer_in(self.row, mu),
+        }
     }
 
     /// A direction of the BSDF's frame in the coat's.
     #[inline]
     fn local(&self, w: Vec3) -> Vec3 {
-        self.frame.map_or(w, |f| f.to_local(w))
+        local(self.frame, w)
+    }
+}
+
+#[inline]
+fn local(frame: Option<Frame>, w: Vec3) -> Vec3 {
+    frame.map_or(w, |f| f.to_local(w))
+}
+
+/// A coat at one wo: what its lobe needs, its scale and its albedo.
+#[derive(Clone, Copy, Debug)]
+struct CoatAt {
+    alpha: f32,
+    smooth: bool,
+    frame: Option<Frame>,
+    /// c · S_c: the lobe's weight times its multiple-scattering scale.
+    scale: f32,
+    /// c · E_layer(μo): what the coat reflects (for a mirror, c·F(μo)).
+    reflected: f32,
+}
+
+impl CoatAt {
+    #[inline]
+    fn local(&self, w: Vec3) -> Vec3 {
+        local(self.frame, w)
     }
 
     #[inline]
     fn world(&self, w: Vec3) -> Vec3 {
         self.frame.map_or(w, |f| f.to_world(w))
     }
-}
-
-/// A coat at one wo: its lobe's scale and albedo.
-#[derive(Clone, Copy, Debug)]
-struct CoatAt {
-    layer: CoatLayer,
-    /// c · S_c: the lobe's weight times its multiple-scattering scale.
-    scale: f32,
-    /// c · E_layer(μo): what the coat reflects.
-    reflected: f32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -114,12 +147,11 @@ impl<B: Bsdf> WithCoat<B> {
         let mu = layer.local(wo).z.clamp(0.0, 1.0);
         // A mirror loses nothing to single scattering, and its albedo is
         // the Fresnel reflectance itself.
-        let (s, albedo) = match &layer.rows {
-            None => (1.0, fresnel_dielectric(mu, COAT_ETA)),
-            Some(rows) => {
-                let (e, albedo) = rows.at(mu);
-                (ms_scale(e, Vec3::splat(layer.f_ms)).x, albedo)
-            }
+        let (s, albedo) = if layer.smooth {
+            (1.0, fresnel_dielectric(mu, COAT_ETA))
+        } else {
+            let (e, albedo) = layer.energies(mu);
+            (ms_scale(e, Vec3::splat(layer.f_ms)).x, albedo)
         };
         let reflected = layer.weight * albedo;
         let mut base_weight = Vec3::splat((1.0 - reflected).clamp(0.0, 1.0));
@@ -134,7 +166,8 @@ impl<B: Bsdf> WithCoat<B> {
         if below > 0.0 {
             coat_probability = coat_probability.max(SPEC_MIN_SHARE * (1.0 - layer.roughness) * (1.0 - layer.roughness));
         }
-        WithCoat { base, coat: Some(CoatAt { layer, scale: layer.weight * s, reflected }), base_weight, coat_probability }
+        let coat = CoatAt { alpha: layer.alpha, smooth: layer.smooth, frame: layer.frame, scale: layer.weight * s, reflected };
+        WithCoat { base, coat: Some(coat), base_weight, coat_probability }
     }
 
     /// The coat's lobe alone (0 for a mirror coat, which only sampling
@@ -142,14 +175,14 @@ impl<B: Bsdf> WithCoat<B> {
     fn coat_eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         let Some(c) = &self.coat else { return (Vec3::ZERO, 0.0) };
         // Above both the shading surface and the coat, as its samples are.
-        if c.layer.smooth || !(wo.z > 0.0 && wi.z > 0.0) {
+        if c.smooth || !(wo.z > 0.0 && wi.z > 0.0) {
             return (Vec3::ZERO, 0.0);
         }
-        let (wo, wi) = (c.layer.local(wo), c.layer.local(wi));
+        let (wo, wi) = (c.local(wo), c.local(wi));
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (Vec3::ZERO, 0.0);
         }
-        let (lobe, pdf) = microfacet::eval_pdf(wo, wi, c.layer.alpha);
+        let (lobe, pdf) = microfacet::eval_pdf(wo, wi, c.alpha);
         (Vec3::splat(c.scale * layer_fresnel(microfacet::cos_half(wo, wi)) * lobe), pdf)
     }
 }
@@ -158,7 +191,7 @@ impl<B: Bsdf> Bsdf for WithCoat<B> {
     type Prepared = (B::Prepared, Option<CoatLayer>);
 
     fn prepare(surface: &Surface) -> Self::Prepared {
-        (B::prepare(surface), CoatLayer::of(surface))
+        (B::prepare(surface), CoatLayer::for_material(surface))
     }
 
     fn at(prepared: &Self::Prepared, wo: Vec3) -> Self {
@@ -197,21 +230,22 @@ impl<B: Bsdf> Bsdf for WithCoat<B> {
         let p = self.coat_probability;
         let s = match &self.coat {
             Some(c) if u_lobe < p => {
-                let wo_c = c.layer.local(wo);
+                let wo_c = c.local(wo);
                 if wo.z <= 0.0 || wo_c.z <= 0.0 {
                     return None;
                 }
-                let wi = if c.layer.smooth {
-                    c.layer.world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z))
+                let wi = if c.smooth {
+                    c.world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z))
                 } else {
-                    c.layer.world(microfacet::sample(wo_c, c.layer.alpha, u)?.0)
+                    c.world(microfacet::sample(wo_c, c.alpha, u)?.0)
                 };
                 if wi.z <= 0.0 {
                     return None;
                 }
-                if c.layer.smooth {
-                    // The mirror: no other lobe makes this direction.
-                    let f = Vec3::splat(c.layer.weight * fresnel_dielectric(wo_c.z, COAT_ETA));
+                if c.smooth {
+                    // The mirror: no other lobe makes this direction, and
+                    // it reflects what the coat reflects at wo.
+                    let f = Vec3::splat(c.reflected);
                     return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
                 }
                 BsdfSample { wi, f: Vec3::ZERO, pdf: 0.0, weight: Vec3::ZERO, delta: false }

@@ -3,7 +3,7 @@
 //! limit, the energy table against an independent integral, and extreme
 //! inputs.
 
-use super::chi2::{chi2_test, dir_at, u2};
+use super::chi2::{bsdf_chi2, chi2_test, dir_at, u2};
 use super::dielectric::{glass_tables, refract, Dielectric};
 use super::*;
 use crate::material::{Material, Surface};
@@ -181,10 +181,7 @@ fn glass_mixed_into_principled_matches_its_pdf() {
             let wo = dir_at(theta);
             let m = glass(Vec3::new(0.8, 0.5, 0.3), metallic, 0.5, transmission, 1.5);
             let bsdf = WithGlass::<PrincipledBsdf>::new(&m, wo);
-            let r = chi2_test(N, 32, |rng| {
-                let ul = rng.next_f32();
-                bsdf.sample(wo, ul, u2(rng)).map(|s| s.wi)
-            }, |wi| bsdf.pdf(wo, wi));
+            let r = bsdf_chi2(&bsdf, wo, N, 32);
             assert!(r.p_value > P_MIN, "metallic {metallic} transmission {transmission} θo {theta}: p = {}", r.p_value);
         }
     }

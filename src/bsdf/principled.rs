@@ -74,23 +74,15 @@ struct Tints {
 }
 
 /// k of a tinted dielectric layer, F_t = (1 + k)·F − k: F0·(1 − tint)/(1 −
-/// F0) at the tables' IOR 1.5; zero for a white tint.
+/// F0) at the tables' IOR 1.5 (zero for a white tint), the tint in [0, 1].
 fn dielectric_tint_k(tint: Vec3) -> Vec3 {
-    let tint = tint.clamp(Vec3::ZERO, Vec3::ONE);
-    if tint == Vec3::ONE {
-        return Vec3::ZERO;
-    }
     let f0 = ((DIELECTRIC_ETA - 1.0) / (DIELECTRIC_ETA + 1.0)).powi(2);
     (Vec3::ONE - tint) * (f0 / (1.0 - f0))
 }
 
-/// b of the F82-tint model for F0 and a Specular Tint: F(1/7) is Schlick's
-/// there × the tint: 0 for a white tint.
+/// b of the F82-tint model for F0 and a Specular Tint in [0, 1]: F(1/7)
+/// is Schlick's there × the tint (b is 0 for a white tint).
 fn f82_tint_b(f0: Vec3, tint: Vec3) -> Vec3 {
-    let tint = tint.clamp(Vec3::ZERO, Vec3::ONE);
-    if tint == Vec3::ONE {
-        return Vec3::ZERO;
-    }
     // μ(1 − μ)^6 at μ = 1/7, where it peaks: (1/7)(6/7)^6.
     let f = 6.0f32 / 7.0;
     let schlick = f0 + (Vec3::ONE - f0) * f.powi(5);
@@ -100,17 +92,13 @@ fn f82_tint_b(f0: Vec3, tint: Vec3) -> Vec3 {
 /// The metal's cosine-weighted mean Fresnel, 2∫F μ dμ: Schlick's less
 /// b·2∫μ²(1 − μ)^6 dμ = b·2·B(3, 7) = b/126.
 fn metal_average_fresnel(f0: Vec3, f82_b: Vec3) -> Vec3 {
-    let schlick = schlick_average(f0);
-    if f82_b == Vec3::ZERO { schlick } else { schlick - f82_b / 126.0 }
+    schlick_average(f0) - f82_b / 126.0
 }
 
-/// The metal's Fresnel at cos θ = `cos`.
+/// The metal's Fresnel at cos θ = `cos` under a Specular Tint.
 #[inline]
 fn metal_fresnel(f0: Vec3, f82_b: Vec3, cos: f32) -> Vec3 {
     let schlick = fresnel_schlick(f0, cos);
-    if f82_b == Vec3::ZERO {
-        return schlick;
-    }
     let (c, m) = (cos.clamp(0.0, 1.0), 1.0 - cos.clamp(0.0, 1.0));
     let m2 = m * m;
     (schlick - f82_b * (c * m2 * m2 * m2)).max(Vec3::ZERO)
@@ -156,17 +144,22 @@ impl PrincipledLobes {
         // the tables' exact ends, like s itself).
         let ior_ratio = (m.ior - 1.0) / (m.ior + 1.0) / 0.2;
         let (smooth, pure_lambert) = (alpha * alpha <= SMOOTH_ALPHA_SQ, m.is_pure_lambert());
-        let f82_b = f82_tint_b(base, m.specular_tint);
+        // Specular Tint's terms, worked out only for a tinted material (a
+        // textured one builds its lobes at every hit).
+        let tint = m.specular_tint.clamp(Vec3::ZERO, Vec3::ONE);
+        let tinted = tint != Vec3::ONE;
+        let f82_b = if tinted { f82_tint_b(base, tint) } else { Vec3::ZERO };
         let metal_average = metal_average_fresnel(base, f82_b);
-        let spec_k = dielectric_tint_k(m.specular_tint);
-        let (f_ms_metal, f_ms_dielectric, f_ms_tinted) = if pure_lambert || smooth {
-            (Vec3::ZERO, 0.0, Vec3::ZERO)
-        } else {
-            let t = tables();
-            let e_avg = t.e_avg(roughness);
-            let tinted_average = (Vec3::ONE + spec_k) * t.dielectric_f_avg - spec_k;
-            (ms_fraction(e_avg, metal_average), ms_fraction(e_avg, Vec3::splat(t.dielectric_f_avg)).x, ms_fraction(e_avg, tinted_average))
+        let e_avg = (!(pure_lambert || smooth)).then(|| tables().e_avg(roughness));
+        let (f_ms_metal, f_ms_dielectric) = match e_avg {
+            None => (Vec3::ZERO, 0.0),
+            Some(e_avg) => (ms_fraction(e_avg, metal_average), ms_fraction(e_avg, Vec3::splat(tables().dielectric_f_avg)).x),
         };
+        let tints = tinted.then(|| {
+            let spec_k = dielectric_tint_k(tint);
+            let tinted_average = (Vec3::ONE + spec_k) * tables().dielectric_f_avg - spec_k;
+            Tints { f82_b, spec_k, s_tinted: e_avg.map_or(Vec3::ZERO, |e_avg| ms_fraction(e_avg, tinted_average)) }
+        });
         PrincipledLobes {
             base,
             metallic: m.metallic.clamp(0.0, 1.0),
@@ -182,7 +175,7 @@ impl PrincipledLobes {
             f_ms_dielectric,
             metal_reflectance: luminance(metal_average),
             base_luminance: luminance(base),
-            tints: (m.specular_tint.clamp(Vec3::ZERO, Vec3::ONE) != Vec3::ONE).then_some(Tints { f82_b, spec_k, s_tinted: f_ms_tinted }),
+            tints,
         }
     }
 
@@ -209,9 +202,10 @@ impl PrincipledBsdf {
             return PrincipledBsdf { base, metallic, specular, alpha, smooth, s_metal: Vec3::ONE, s_dielectric: 1.0, diffuse_weight: 1.0, glossy_probability: 0.0, reflectance: m.base_luminance, tints: None };
         }
         // A mirror loses nothing to single scattering and its layer albedo
-        // is the Fresnel reflectance itself.
-        let (s_metal, s_dielectric, layer) = if smooth {
-            (Vec3::ONE, 1.0, fresnel_dielectric(mu, DIELECTRIC_ETA))
+        // is the Fresnel reflectance itself. E (the white lobe's albedo) is
+        // kept for a tinted layer below.
+        let (s_metal, s_dielectric, layer, e) = if smooth {
+            (Vec3::ONE, 1.0, fresnel_dielectric(mu, DIELECTRIC_ETA), 1.0)
         } else {
             let (e, layer) = match &m.rows {
                 Some(rows) => rows.at(mu),
@@ -219,7 +213,7 @@ impl PrincipledBsdf {
             };
             let s_dielectric = ms_scale(e, Vec3::splat(m.f_ms_dielectric)).x;
             if m.multiscatter {
-                (ms_scale(e, m.f_ms_metal), s_dielectric, layer)
+                (ms_scale(e, m.f_ms_metal), s_dielectric, layer, e)
             } else {
                 // Plain GGX: the lobes lose what single scattering loses,
                 // but Cycles weights the base below by the albedo its
@@ -228,7 +222,7 @@ impl PrincipledBsdf {
                 // white albedo of 1, each bounce Fresnel-weighted. That is
                 // the compensated albedo undarkened, E_layer / (S·E) — a
                 // plain-GGX dielectric is darker than a multiscatter one.
-                (Vec3::ONE, 1.0, layer / (s_dielectric * e).max(f32::MIN_POSITIVE))
+                (Vec3::ONE, 1.0, layer / (s_dielectric * e).max(f32::MIN_POSITIVE), e)
             }
         };
         // A tinted layer's albedo per channel (module doc): the base gets
@@ -239,10 +233,6 @@ impl PrincipledBsdf {
                 let (layer, s_tinted) = if smooth {
                     (((Vec3::ONE + k) * layer - k).max(Vec3::ZERO).max_element(), Vec3::ONE)
                 } else {
-                    let (e, _) = match &m.rows {
-                        Some(rows) => rows.at(mu),
-                        None => tables().e_and_layer_in(m.row, mu),
-                    };
                     let (white, s_t) = if m.multiscatter {
                         (layer / (s_dielectric * e).max(f32::MIN_POSITIVE), ms_scale(e, f_ms_tinted))
                     } else {

@@ -1,7 +1,7 @@
 //! Sampling-against-pdf, normalisation, finiteness, energy and reciprocity
 //! tests of every lobe and of the seed material.
 
-use super::chi2::{albedo_of, chi2_test, dir_at, u2};
+use super::chi2::{albedo_of, bsdf_chi2, chi2_test, dir_at, u2};
 use super::*;
 use super::microfacet;
 use crate::material::{Material, Surface};
@@ -69,10 +69,7 @@ fn seed_material_sampling_matches_pdf() {
             for theta in [10.0f32, 60.0, 85.0] {
                 let wo = dir_at(theta);
                 let bsdf = SeedBsdf::new(&material(base, metallic, roughness), wo);
-                let r = chi2_test(N, 3, |rng| {
-                    let ul = rng.next_f32();
-                    bsdf.sample(wo, ul, u2(rng)).map(|s| s.wi)
-                }, |wi| bsdf.pdf(wo, wi));
+                let r = bsdf_chi2(&bsdf, wo, N, 3);
                 assert!(r.p_value > P_MIN, "metallic {metallic} roughness {roughness} θo {theta}: p = {}", r.p_value);
             }
         }
@@ -276,10 +273,7 @@ fn principled_sampling_matches_pdf() {
             for theta in [10.0f32, 60.0, 85.0] {
                 let wo = dir_at(theta);
                 let bsdf = PrincipledBsdf::new(&material(base, metallic, roughness), wo);
-                let r = chi2_test(N, 5, |rng| {
-                    let ul = rng.next_f32();
-                    bsdf.sample(wo, ul, u2(rng)).map(|s| s.wi)
-                }, |wi| bsdf.pdf(wo, wi));
+                let r = bsdf_chi2(&bsdf, wo, N, 5);
                 assert!(r.p_value > P_MIN, "metallic {metallic} roughness {roughness} θo {theta}: p = {}", r.p_value);
             }
         }

@@ -728,7 +728,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
     let transmission = extensions.and_then(|e| e.transmission.as_ref()).map_or(0.0, |t| finite_or(t.transmission_factor.0, 0.0).clamp(0.0, 1.0));
     // KHR_materials_ior allows 1 and up; anything else is its default.
     let ior = extensions.and_then(|e| e.ior.as_ref()).map(|i| i.ior.0).filter(|i| i.is_finite() && *i >= 1.0).unwrap_or(1.5);
-    let (coat, coat_roughness) = clearcoat(extensions.and_then(|e| e.others.get("KHR_materials_clearcoat")));
+    let (coat, coat_roughness) = clearcoat(clearcoat_extension(m));
     let alpha_mode = match m.alpha_mode {
         Checked::Valid(gltf::json::material::AlphaMode::Mask) => AlphaMode::Mask(m.alpha_cutoff.map_or(0.5, |c| finite_or(c.0, 0.5))),
         Checked::Valid(gltf::json::material::AlphaMode::Blend) => AlphaMode::Blend,
@@ -758,15 +758,20 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
     }
 }
 
+/// A material's KHR_materials_clearcoat, which gltf-json leaves as JSON.
+fn clearcoat_extension(m: &gltf::json::Material) -> Option<&serde_json::Value> {
+    m.extensions.as_ref().and_then(|e| e.others.get("KHR_materials_clearcoat"))
+}
+
 /// Whether a material's KHR_materials_clearcoat names a texture.
 fn has_coat_texture(m: &gltf::json::Material) -> bool {
-    let coat = m.extensions.as_ref().and_then(|e| e.others.get("KHR_materials_clearcoat"));
+    let coat = clearcoat_extension(m);
     ["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"].iter().any(|key| coat.and_then(|c| c.get(key)).is_some())
 }
 
 /// KHR_materials_clearcoat's factors (weight, roughness), each 0 where
 /// absent or not a number, clamped to [0, 1]. Its textures are not read
-/// (`coat_texture_warnings`).
+/// (`has_coat_texture` warns of them).
 fn clearcoat(extension: Option<&serde_json::Value>) -> (f32, f32) {
     let factor = |name: &str| extension.and_then(|e| e.get(name)).and_then(serde_json::Value::as_f64).map_or(0.0, |v| finite_or(v as f32, 0.0).clamp(0.0, 1.0));
     (factor("clearcoatFactor"), factor("clearcoatRoughnessFactor"))
