@@ -20,7 +20,8 @@ Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
 Through the request: resolution × percentage, the scene camera and what
-glTF cannot say of it (Shift X and Y, Depth of Field), Film › Transparent (and
+glTF cannot say of it (Shift X and Y, Depth of Field, a panoramic camera's
+type and settings), Film › Transparent (and
 Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, samples, bounces,
 time limit, seed, the World colour, every area light (glTF has none):
 shape, size, world transform, colour and power, and the sizes of the
@@ -39,10 +40,6 @@ from mathutils import Matrix
 Z_UP_TO_Y_UP = Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
 
 
-class UnsupportedScene(Exception):
-    """What the scene has that cannot go to Glint, in one line."""
-
-
 def export_scene(path, frame, subframe):
     """Export the active scene at a frame as GLB to `path` (written whole,
     then renamed)."""
@@ -50,10 +47,23 @@ def export_scene(path, frame, subframe):
     # render does not move to the frame it renders: evaluate that frame.
     bpy.context.scene.frame_set(frame, subframe=subframe)
     # Blender 4.5's exporter fails on a panoramic camera with a KeyError
-    # ('current_paths') that would tell the user nothing.
-    panoramic = sorted(i.object.name for i in bpy.context.evaluated_depsgraph_get().object_instances if i.object.type == "CAMERA" and i.object.data.type == "PANO")
-    if panoramic:
-        raise UnsupportedScene(f"panoramic cameras are not rendered yet (Blender's glTF exporter cannot export them): {', '.join(panoramic)}")
+    # ('current_paths'): it goes out as a perspective one, which carries
+    # its transform and clip distances, and the request carries its
+    # panorama (`camera_lens`).
+    panoramic = {i.object.data for i in bpy.context.evaluated_depsgraph_get().object_instances if i.object.type == "CAMERA" and i.object.data.type == "PANO"}
+    panoramic = [bpy.data.cameras[c.name] for c in panoramic]
+    try:
+        for camera in panoramic:
+            camera.type = "PERSP"
+        export_glb(path)
+    finally:
+        for camera in panoramic:
+            camera.type = "PANO"
+
+
+def export_glb(path):
+    """The exporter's GLB of the active scene as it stands, written to a
+    temporary file, then renamed to `path`."""
     normal_maps = any(uses_node(m, {"NORMAL_MAP"}) for m in used_materials(bpy.context.evaluated_depsgraph_get()))
     directory, name = os.path.split(path)
     tmp = os.path.join(directory, f".{name}.export.glb")
@@ -261,16 +271,26 @@ def render_request(depsgraph, job, width, height):
         lens = camera_lens(scene, scene.camera)
         if lens:
             request["lens"] = lens
+        if scene.camera.type == "CAMERA" and scene.camera.data.type == "PANO" and scene.camera.data.dof.use_dof:
+            warnings.append(f"{scene.camera.name}: Depth of Field on a panoramic camera is not rendered by Glint")
     return request, warnings
 
 
 def camera_lens(scene, camera):
-    """A camera's Shift X and Y and its Depth of Field, as Cycles renders
-    them (its blender/camera.cpp), or None where it has neither."""
+    """A camera's Shift X and Y, its Depth of Field and a panoramic one's
+    projection, as Cycles renders them (its blender/camera.cpp), or None
+    where it has none of them."""
     if camera.type != "CAMERA":
         return None
     data = camera.data
     lens = {}
+    if data.type == "PANO":
+        # Cycles moves a panorama's view, the unit square, by the shift
+        # itself.
+        if data.shift_x or data.shift_y:
+            lens["shift"] = [data.shift_x, data.shift_y]
+        lens["panorama"] = panorama(scene, data)
+        return lens
     if data.shift_x or data.shift_y:
         # Blender's shift is in units of the view's fitted side (the larger
         # one under Auto); the request's, in fractions of each side.
@@ -293,6 +313,43 @@ def camera_lens(scene, camera):
             "ratio": dof.aperture_ratio,
         }
     return lens or None
+
+
+def panorama(scene, data):
+    """A panoramic camera's Panorama Type and the settings Cycles reads for
+    it (angles in radians, lens and sensor in mm)."""
+    kind = data.panorama_type
+    record = {"type": kind}
+    if kind == "EQUIRECTANGULAR":
+        record["latitude"] = [data.latitude_min, data.latitude_max]
+        record["longitude"] = [data.longitude_min, data.longitude_max]
+    elif kind == "FISHEYE_EQUIDISTANT":
+        record["fov"] = data.fisheye_fov
+    elif kind == "FISHEYE_EQUISOLID":
+        record.update(fov=data.fisheye_fov, lens=data.fisheye_lens, sensor=fitted_sensor(scene, data))
+    elif kind == "FISHEYE_LENS_POLYNOMIAL":
+        k = [getattr(data, f"fisheye_polynomial_k{i}") for i in range(5)]
+        record.update(fov=data.fisheye_fov, k=k, sensor=fitted_sensor(scene, data))
+    elif kind == "CENTRAL_CYLINDRICAL":
+        record["u_range"] = [data.central_cylindrical_range_u_min, data.central_cylindrical_range_u_max]
+        record["v_range"] = [data.central_cylindrical_range_v_min, data.central_cylindrical_range_v_max]
+        record["radius"] = data.central_cylindrical_radius
+    return record
+
+
+def fitted_sensor(scene, data):
+    """The sensor's width and height in mm as Cycles fits it to the image
+    for a fisheye: the side Sensor Fit picks is the sensor's size, the
+    other follows the image's aspect."""
+    render = scene.render
+    scale = render.resolution_percentage / 100
+    x = int(render.resolution_x * scale) * render.pixel_aspect_x
+    y = int(render.resolution_y * scale) * render.pixel_aspect_y
+    if data.sensor_fit == "VERTICAL":
+        return [data.sensor_height * x / y, data.sensor_height]
+    if data.sensor_fit == "HORIZONTAL" or x > y:
+        return [data.sensor_width, data.sensor_width * y / x]
+    return [data.sensor_width * x / y, data.sensor_width]
 
 
 def focus_distance(camera):

@@ -425,7 +425,7 @@ mod tests {
                 for _ in 0..samples {
                     for i in 0..tw * th {
                         let pixel = Vec2::new((x0 + i % tw) as f32, (y0 + i / tw) as f32) + rng.next_2d();
-                        rays.set(i as usize, lens.ray(pixel, Vec2::ZERO).dir);
+                        rays.set(i as usize, lens.ray(pixel, Vec2::ZERO).unwrap().dir);
                     }
                     hits.nearest(tw, th, &mut rays);
                     for i in 0..(tw * th) as usize {
@@ -506,7 +506,7 @@ mod tests {
                 // edges most often, and the pixels' centres.
                 for offset in [Vec2::ZERO, Vec2::splat(0.5), Vec2::new(0.5, 0.0)] {
                     for i in 0..256u32 {
-                        rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32) + offset, Vec2::ZERO).dir);
+                        rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32) + offset, Vec2::ZERO).unwrap().dir);
                     }
                     hits.nearest(16, 16, &mut rays);
                     for i in 0..256 {
@@ -542,7 +542,7 @@ mod tests {
             hits.face(x0, y0, 16, 16, &mut rays);
             // Pixel corners: the image's middle row and column among them.
             for i in 0..256u32 {
-                rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32), Vec2::ZERO).dir);
+                rays.set(i as usize, lens.ray(Vec2::new((x0 + i % 16) as f32, (y0 + i / 16) as f32), Vec2::ZERO).unwrap().dir);
             }
             hits.nearest(16, 16, &mut rays);
             for i in 0..256 {

@@ -216,7 +216,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     crate::lamps::add_area_lights(&mut scene, extras.area_lights).map_err(|e| format!("{name}: {e}"))?;
     size_lights(&mut scene, extras.light_sizes).map_err(|e| format!("{name}: {e}"))?;
     if let Some(lens) = extras.lens {
-        scene.camera.set_lens(glam::Vec2::from(lens.shift), lens.aperture).map_err(|e| format!("{name}: lens: {e}"))?;
+        scene.camera.set_lens(glam::Vec2::from(lens.shift), lens.aperture, lens.panorama).map_err(|e| format!("{name}: lens: {e}"))?;
     }
     if let Some(env) = &options.environment {
         let map = EnvironmentMap::load(&env.image, env.strength, env.rotation).map_err(|e| format!("{name}: {e}"))?;

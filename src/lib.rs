@@ -25,6 +25,7 @@ pub mod loader;
 pub mod memory;
 pub mod material;
 pub mod output;
+pub mod panorama;
 pub mod parallelogram;
 pub mod progressive;
 pub mod portals;

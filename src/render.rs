@@ -355,7 +355,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         let jitter = rng.next_2d();
                         let aperture = if lens.has_aperture() { rng.next_2d() } else { Vec2::ZERO };
                         let ray = lens.ray(Vec2::new(x as f32, y as f32) + jitter, aperture);
-                        rays.set(i as usize, ray.dir);
+                        rays.set(i as usize, ray.map_or(Vec3::ZERO, |r| r.dir));
                         rngs.push((rng, ray));
                     }
                     if let Some(hits) = &camera_hits {
@@ -365,8 +365,15 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         hits.nearest(tw as u32, y1 - y0, rays);
                     }
                     for (i, ((sum, covered), (rng, ray))) in sums[..tile_pixels].iter_mut().zip(covered.iter_mut()).zip(rngs.iter_mut()).enumerate() {
-                        let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
-                        let (l, coverage) = radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first);
+                        let (l, coverage) = match ray {
+                            Some(ray) => {
+                                let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
+                                radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first)
+                            }
+                            // Outside a fisheye's circle: black and opaque,
+                            // as Cycles leaves it.
+                            None => (Vec3::ZERO, 1.0),
+                        };
                         if sample_fits(l) {
                             *sum += l;
                         } else {

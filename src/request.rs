@@ -106,6 +106,9 @@ pub struct LensRequest {
     pub shift: [f32; 2],
     /// Depth of field (camera.rs).
     pub aperture: Option<crate::camera::Aperture>,
+    /// A panoramic camera's projection (panorama.rs), which replaces the
+    /// glTF camera's; its shift is in fractions of the view's unit square.
+    pub panorama: Option<crate::panorama::Panorama>,
 }
 
 /// What KHR_lights_punctual cannot say of a Blender light (punctual.rs).

@@ -169,7 +169,7 @@ fn emitters_too_bright_to_sum_are_refused() {
 }
 
 /// A request's lens the camera cannot have is refused in one line, naming
-/// the scene and the value; a good one renders.
+/// the scene and the value; a good one renders (a panoramic one too).
 #[test]
 fn a_request_lens_out_of_range_is_refused() {
     let dir = temp_dir("lens");
@@ -181,6 +181,9 @@ fn a_request_lens_out_of_range_is_refused() {
         (r#"{"aperture": {"radius": 0.1, "focus_distance": 2, "ratio": 0}}"#, "lens: aperture ratio 0 must be in [0.001, 1000]"),
         (r#"{"shift": [1e9, 0]}"#, "lens: lens shift [1000000000, 0] must be within ±1000 image sizes"),
         (r#"{"shift": [0.2, -0.1], "aperture": {"radius": 0.05, "focus_distance": 3.8, "blades": 5}}"#, ""),
+        (r#"{"panorama": {"type": "FISHEYE_EQUIDISTANT", "fov": 0}}"#, "lens: panorama fov 0 must be in (0, 2π]"),
+        (r#"{"panorama": {"type": "MIRRORBALL"}, "aperture": {"radius": 0.1, "focus_distance": 2}}"#, "lens: depth of field on a panoramic camera is not rendered"),
+        (r#"{"shift": [0.1, 0], "panorama": {"type": "FISHEYE_EQUISOLID", "fov": 3.14, "lens": 10.5, "sensor": [36, 24]}}"#, ""),
     ] {
         std::fs::write(&request, format!(r#"{{"width": 8, "height": 8, "samples": 2, "lens": {lens}}}"#)).unwrap();
         let o = glint(&["render", "--request", request.to_str().unwrap(), "-o", exr.to_str().unwrap()]);

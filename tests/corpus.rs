@@ -309,7 +309,7 @@ fn mutated_sample_models_load_or_fail_cleanly() {
 /// add-on writes: each area light shape, a Spread, a portal, visible
 /// lamps, the three lights' sizes, an environment image or a World colour,
 /// and the camera's lens shift and aperture and a transparent film (with
-/// every other request).
+/// every other request; the caller gives half of the rest a panorama).
 fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_json::Value) {
     use serde_json::json;
     let scene = default_scene_with_lights(
@@ -366,6 +366,13 @@ fn mutated_render_requests_render_or_fail_cleanly() {
     let count = mutation_count(2000);
     for i in 0..count {
         let (mut scene, mut request) = lit_box_and_request((i % 2 == 1).then_some(sky.as_path()));
+        // Every other request without an environment sees through a
+        // panoramic camera, whose settings are numbers to mutate too.
+        if i % 4 == 2 {
+            request["lens"] = serde_json::json!({"shift": [0.05, 0], "panorama": {"type": "FISHEYE_LENS_POLYNOMIAL", "fov": 3.0, "k": [-1e-5, -0.02, -3e-6, 1e-8, -4e-11], "sensor": [36, 24]}});
+        } else if i % 4 == 0 {
+            request["lens"] = serde_json::json!({"panorama": {"type": "EQUIRECTANGULAR", "latitude": [-1.2, 1.5], "longitude": [-3.0, 2.0]}});
+        }
         let mut what = Vec::new();
         for _ in 0..1 + pick(3) {
             // A fifth of the mutations go to the scene's lights and nodes.

@@ -818,7 +818,7 @@ fn light_paths_keep_the_image_through_a_shifted_aperture_with_clip_start() {
     let mut scene = Scene::new(scene.triangles, scene.materials, scene.camera);
     scene.camera.clip = [3.3, 100.0];
     let aperture = glint::camera::Aperture { radius: 0.08, focus_distance: 4.0, blades: 6, rotation: 0.2, ratio: 1.3 };
-    scene.camera.set_lens(glam::Vec2::new(0.05, -0.03), Some(aperture)).unwrap();
+    scene.camera.set_lens(glam::Vec2::new(0.05, -0.03), Some(aperture), None).unwrap();
     let with = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(24, 24, 256, 6, 0) };
     let without = RenderSettings { light_paths: LightPaths::Off, ..with.clone() };
     same_image_less_noise(&scene, &with, &without, "light paths through an aperture");
@@ -866,4 +866,79 @@ fn a_transparent_film_hides_the_world_from_the_camera_and_keeps_coverage() {
     let mut opaque = Film::new(w, h);
     render_pass(&Context::new(&scene).0, &settings(w, h, 1, 4, 1), &mut opaque, 0..1, &AtomicBool::new(false), &|_| {}).unwrap();
     assert!(opaque.alpha().is_none() && opaque.mean()[0] == Vec3::ONE);
+}
+
+/// A panoramic camera (a request's `lens.panorama`) inside a cube whose
+/// six faces emit six colours, looking down −Z: each mapping sees the
+/// face Cycles' does at points of its view well inside a face, exactly
+/// (one bounce, black emitters). Outside a fisheye's circle the pixel is
+/// black and, on a transparent film, opaque, as Cycles leaves it; with the
+/// cube gone, the World inside the circle is transparent.
+#[test]
+fn panoramic_cameras_see_the_faces_around_them() {
+    use glint::panorama::Panorama;
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    // Each face's corners, and its colour: +X red, −X cyan, +Y green, −Y
+    // magenta, +Z blue, −Z yellow.
+    let faces = [
+        ([c(1., -1., -1.), c(1., 1., -1.), c(1., 1., 1.), c(1., -1., 1.)], c(1., 0., 0.)),
+        ([c(-1., -1., 1.), c(-1., 1., 1.), c(-1., 1., -1.), c(-1., -1., -1.)], c(0., 1., 1.)),
+        ([c(-1., 1., 1.), c(1., 1., 1.), c(1., 1., -1.), c(-1., 1., -1.)], c(0., 1., 0.)),
+        ([c(-1., -1., -1.), c(1., -1., -1.), c(1., -1., 1.), c(-1., -1., 1.)], c(1., 0., 1.)),
+        ([c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.), c(-1., -1., 1.)], c(0., 0., 1.)),
+        ([c(-1., -1., -1.), c(-1., 1., -1.), c(1., 1., -1.), c(1., -1., -1.)], c(1., 1., 0.)),
+    ];
+    let mut triangles = Vec::new();
+    let mut materials = Vec::new();
+    for (i, (f, colour)) in faces.iter().enumerate() {
+        for p in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
+            triangles.push(common::triangle(p, i as u32));
+        }
+        materials.push(glint::material::Material { double_sided: true, ..common::emitter(*colour) });
+    }
+    let (w, h) = (64u32, 32u32);
+    let render_with = |panorama: Panorama, scene_triangles: Vec<glint::scene::Triangle>| {
+        let mut camera = common::look_at(Vec3::ZERO, Vec3::NEG_Z, 1.0);
+        camera.set_lens(glam::Vec2::ZERO, None, Some(panorama)).unwrap();
+        let mut scene = Scene::new(scene_triangles, materials.clone(), camera);
+        scene.background = Vec3::splat(0.5);
+        let transparent = RenderSettings { transparent: true, ..settings(w, h, 4, 1, 1) };
+        let mut film = Film::new(w, h);
+        let stats = render_pass(&Context::new(&scene).0, &transparent, &mut film, 0..4, &AtomicBool::new(false), &|_| {}).unwrap();
+        let img = film.mean();
+        common::assert_clean(&img, &stats, &format!("{panorama:?}"));
+        (img, film.alpha().unwrap())
+    };
+    // The pixel at (u, v) of the view, from its bottom-left corner.
+    let pixel = |u: f32, v: f32| (((1.0 - v) * h as f32) as u32).min(h - 1) * w + ((u * w as f32) as u32).min(w - 1);
+    let (red, cyan, green, magenta, blue, yellow) = (faces[0].1, faces[1].1, faces[2].1, faces[3].1, faces[4].1, faces[5].1);
+    let full = Panorama::Equirectangular { latitude: [-FRAC_PI_2, FRAC_PI_2], longitude: [-PI, PI] };
+    let fisheye = Panorama::FisheyeEquidistant { fov: PI };
+    let cases: [(Panorama, &[((f32, f32), Vec3)]); 5] = [
+        // Forward (−Z) in the middle, right (+X) at three quarters, left at
+        // one, behind at the edges, the ceiling along the top.
+        (full, &[((0.5, 0.5), yellow), ((0.76, 0.5), red), ((0.24, 0.5), cyan), ((0.02, 0.5), blue), ((0.98, 0.5), blue), ((0.3, 0.97), green), ((0.6, 0.03), magenta)]),
+        // 45° either side of forward and up: the front face only.
+        (Panorama::EquiangularCubemapFace {}, &[((0.1, 0.1), yellow), ((0.9, 0.9), yellow), ((0.5, 0.5), yellow)]),
+        // 90° off the axis at the circle: right at the right, up at the top.
+        (fisheye, &[((0.5, 0.5), yellow), ((0.97, 0.5), red), ((0.5, 0.03), magenta), ((0.5, 0.97), green), ((0.03, 0.5), cyan)]),
+        // The rim reflects what is behind the camera.
+        (Panorama::Mirrorball {}, &[((0.5, 0.5), yellow), ((0.995, 0.5), blue), ((0.5, 0.71), green), ((0.29, 0.5), cyan)]),
+        (Panorama::CentralCylindrical { u_range: [-PI, PI], v_range: [-0.1, 0.1], radius: 1.0 }, &[((0.5, 0.5), yellow), ((0.75, 0.5), red), ((0.01, 0.5), blue)]),
+    ];
+    for (panorama, expected) in cases {
+        let (img, alpha) = render_with(panorama, triangles.clone());
+        for &((u, v), colour) in expected {
+            let p = img[pixel(u, v) as usize];
+            assert!((p - colour).abs().max_element() < 1e-5, "{panorama:?} at ({u}, {v}): {p}, not {colour}");
+        }
+        assert!(alpha.iter().all(|a| *a == 1.0), "{panorama:?}: the cube covers everything");
+    }
+    // Outside the circle, black and opaque; inside it, with no cube, the
+    // World, transparent.
+    let (img, alpha) = render_with(fisheye, Vec::new());
+    let (corner, centre) = (pixel(0.02, 0.02) as usize, pixel(0.5, 0.5) as usize);
+    assert_eq!((img[corner], alpha[corner]), (Vec3::ZERO, 1.0));
+    assert_eq!((img[centre], alpha[centre]), (Vec3::ZERO, 0.0));
 }

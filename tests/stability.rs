@@ -148,7 +148,7 @@ fn expected_floor(scene: &Scene, w: u32, h: u32) -> Vec<f32> {
             let mut sum = 0.0f64;
             for k in 0..36 {
                 let sub = glam::Vec2::new(i as f32 + ((k % 6) as f32 + 0.5) / 6.0, j as f32 + ((k / 6) as f32 + 0.5) / 6.0);
-                let glint::camera::CameraRay { origin: o, dir: d, .. } = scene.camera.ray(sub, w, h);
+                let glint::camera::CameraRay { origin: o, dir: d, .. } = scene.camera.ray(sub, w, h).expect("a perspective camera has every ray");
                 let x = o - d * (o.y / d.y); // the floor y = 0
                 for &(c, power) in &emitters {
                     let v = c - x;
@@ -558,7 +558,7 @@ fn an_emitter_close_over_a_floor_matches_lamberts_formula() {
             for i in 0..w {
                 for k in 0..16 {
                     let sub = glam::Vec2::new(i as f32 + ((k % 4) as f32 + 0.5) / 4.0, j as f32 + ((k / 4) as f32 + 0.5) / 4.0);
-                    let glint::camera::CameraRay { origin: o, dir: d, .. } = scene.camera.ray(sub, w, h);
+                    let glint::camera::CameraRay { origin: o, dir: d, .. } = scene.camera.ray(sub, w, h).expect("a perspective camera has every ray");
                     let x = o - d * (o.y / d.y);
                     exact += FLOOR_ALBEDO as f64 / std::f64::consts::PI * polygon_irradiance(x, Vec3::Y, &square, le as f64);
                 }

@@ -176,15 +176,28 @@ def test_a_missing_executable_is_one_clear_error(empty_scene, monkeypatch):
     assert "/nonexistent/glint" in message and "GLINT_EXECUTABLE" in message and "Traceback" not in message
 
 
-def test_a_panoramic_camera_is_one_clear_error(empty_scene):
-    """Blender's glTF exporter raises a bare KeyError on a panoramic camera;
-    the add-on says what is wrong and names the camera instead."""
+def test_a_panoramic_camera_renders_and_stays_panoramic(empty_scene, tmp_path):
+    """Blender's glTF exporter raises a bare KeyError on a panoramic camera:
+    the add-on exports it (and any other panoramic camera of the scene)
+    as a perspective one for the exporter's sake and turns it back, and
+    the request carries its panorama: Cycles' settings, with a fisheye's
+    sensor fitted to the image as Cycles fits it (Auto: the larger side)."""
     cam = build_scene(empty_scene)
-    cam.data.type = "PANO"
-    with pytest.raises(RuntimeError) as error:
-        bpy.ops.render.render()
-    message = str(error.value)
-    assert "panoramic cameras are not rendered yet" in message and "Camera" in message and "current_paths" not in message, message
+    cam.data.type, cam.data.panorama_type, cam.data.fisheye_lens = "PANO", "FISHEYE_EQUISOLID", 8.0
+    other = bpy.data.objects.new("Other", bpy.data.cameras.new("Other"))
+    other.data.type = "PANO"
+    empty_scene.collection.objects.link(other)
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 30, 60
+    empty_scene.glint.samples = 2
+    result = render_to(tmp_path / "pano.exr")
+    assert result.shape == (60, 30, 4) and np.isfinite(result).all() and result[..., :3].max() > 0
+    assert (cam.data.type, other.data.type) == ("PANO", "PANO")
+    request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "job", 30, 60)
+    panorama = request["lens"]["panorama"]
+    assert panorama["type"] == "FISHEYE_EQUISOLID" and panorama["lens"] == 8.0 and panorama["sensor"] == [18.0, 36.0], panorama
+    cam.data.dof.use_dof = True
+    request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "job", 30, 60)
+    assert "aperture" not in request["lens"] and any("Depth of Field on a panoramic camera" in w for w in warnings), warnings
 
 
 def test_an_animation_renders_every_frame_with_its_camera(empty_scene, tmp_path):

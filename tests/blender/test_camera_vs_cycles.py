@@ -144,6 +144,67 @@ def test_transparent_film_gives_coverage_as_alpha_as_in_cycles(empty_scene, tmp_
         assert np.all(img[alpha == 0][..., :3] == 0), engine
 
 
+# Six faces of a 4 m cube around the camera, each emitting its own colour,
+# every channel a yes or no: +X red, −X cyan, +Y green, −Y magenta, +Z blue,
+# −Z yellow. A pixel's channel is then the share of it that sees faces
+# with that channel on.
+CUBE_FACES = {
+    "PosX": ([(2, -2, -2), (2, 2, -2), (2, 2, 2), (2, -2, 2)], (1, 0, 0)),
+    "NegX": ([(-2, -2, -2), (-2, -2, 2), (-2, 2, 2), (-2, 2, -2)], (0, 1, 1)),
+    "PosY": ([(-2, 2, -2), (-2, 2, 2), (2, 2, 2), (2, 2, -2)], (0, 1, 0)),
+    "NegY": ([(-2, -2, -2), (2, -2, -2), (2, -2, 2), (-2, -2, 2)], (1, 0, 1)),
+    "PosZ": ([(-2, -2, 2), (2, -2, 2), (2, 2, 2), (-2, 2, 2)], (0, 0, 1)),
+    "NegZ": ([(-2, -2, -2), (-2, 2, -2), (2, 2, -2), (2, -2, -2)], (1, 1, 0)),
+}
+
+
+@pytest.mark.parametrize("kind, settings, shift", [
+    ("EQUIRECTANGULAR", {"latitude_min": -1.2, "latitude_max": 1.4, "longitude_min": -2.5, "longitude_max": 2.9}, (0.0, 0.0)),
+    ("EQUIRECTANGULAR", {}, (0.1, -0.05)),
+    ("EQUIANGULAR_CUBEMAP_FACE", {}, (0.0, 0.0)),
+    ("MIRRORBALL", {}, (0.0, 0.0)),
+    ("FISHEYE_EQUIDISTANT", {"fisheye_fov": 2.8}, (0.0, 0.0)),
+    ("FISHEYE_EQUISOLID", {"fisheye_fov": 3.0, "fisheye_lens": 8.0}, (0.0, 0.0)),
+    ("FISHEYE_EQUISOLID", {"fisheye_fov": 2.5, "fisheye_lens": 10.0, "sensor_fit": "VERTICAL"}, (0.0, 0.0)),
+    ("FISHEYE_LENS_POLYNOMIAL", {}, (0.0, 0.0)),
+    ("CENTRAL_CYLINDRICAL", {"central_cylindrical_range_u_min": -2.0, "central_cylindrical_range_u_max": 2.5,
+                             "central_cylindrical_range_v_min": -1.0, "central_cylindrical_range_v_max": 1.5,
+                             "central_cylindrical_radius": 1.3}, (0.0, 0.0)),
+])
+def test_panoramic_cameras_see_what_cycles_sees(empty_scene, tmp_path, kind, settings, shift):
+    """A panoramic camera, turned every way and off the centre of a cube
+    whose six faces emit six colours (`CUBE_FACES`), on a 40 × 24 image:
+    every pixel's channels are the shares of it that see each colour, in
+    Cycles and in Glint. Glint's independent samples are binomial noise,
+    √(p(1−p)/N) at most, Cycles' stratified ones less: the tolerance is
+    5 σ of the difference, so that the face's edges, which cross the view
+    along curves each mapping draws its own way, must fall within a few
+    hundredths of a pixel of Cycles'. Outside a fisheye's circle or the
+    mirror ball both are black (within 2e-3). A mapping flipped left for right, or an
+    equisolid lens taken for an equidistant one, fails it by far."""
+    for name, (corners, colour) in CUBE_FACES.items():
+        give_principled(plane(empty_scene, name, corners), name, Base_Color=(0, 0, 0, 1), Emission_Color=(*colour, 1),
+                        Emission_Strength=1.0, Specular_IOR_Level=0.0)
+    camera = add_camera(empty_scene, (0.3, -0.2, 0.1), rotation=(1.2, 0.1, 0.5)).data
+    camera.type, camera.panorama_type = "PANO", kind
+    camera.shift_x, camera.shift_y = shift
+    for key, value in settings.items():
+        setattr(camera, key, value)
+    width, height = 40, 24
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = width, height
+    empty_scene.view_settings.view_transform = "Standard"
+    samples = 2048
+    (c,), (g,) = render_seeds(empty_scene, tmp_path, samples, 0, 1)
+    assert camera.type == "PANO", "the add-on left the camera perspective"
+    # Both see the faces over much of the view.
+    assert (c.sum(axis=2) > 0).mean() > 0.3 and (g.sum(axis=2) > 0).mean() > 0.3
+    p = np.clip((c + g) / 2, 0, 1)
+    tolerance = 5 * np.sqrt(2 * p * (1 - p) / samples) + 2e-3
+    excess = np.abs(c - g) / tolerance
+    worst = np.unravel_index(np.argmax(excess), excess.shape)
+    assert excess.max() < 1, (kind, worst, c[worst[:2]], g[worst[:2]])
+
+
 def plane(scene, name, corners):
     """A one-quad mesh object."""
     mesh = bpy.data.meshes.new(name)
