@@ -851,7 +851,10 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     let Some(wi_local) = toward_light(si, bsdf, wi) else { return Vec3::ZERO };
     let light_tri = &ctx.scene.triangles[ls.triangle as usize];
     let light_material = &ctx.scene.materials[light_tri.material as usize];
-    let le = shading::emission_at(ctx.scene, light_material, ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0) * light_material.spread_factor(cos_light);
+    let mut le = shading::emission_at(ctx.scene, light_material, ls.triangle, Barycentric::new(ls.b1, ls.b2), cos_light > 0.0) * light_material.spread_factor(cos_light);
+    if let Some(w) = B::emission_weight(light_material, cos_light) {
+        le *= w;
+    }
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     if le == Vec3::ZERO || f == Vec3::ZERO {
         return Vec3::ZERO;
@@ -1089,7 +1092,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
         if AREA && seen_kept {
-            let le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
+            let mut le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
+            if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
+                le *= w;
+            }
             l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, settings.mis);
         }
         if depth == max_depth {

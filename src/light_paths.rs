@@ -522,9 +522,13 @@ fn subpath_rng(seed: u64, j: u32, sample: u64) -> Rng {
 /// Traces one subpath, handing each vertex to `vertex` as it is made.
 fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, rays: &mut u64, vertex: &mut impl FnMut(&LightVertex, &mut Rng, &mut u64)) {
     let (u_pick, u_point) = rng.next_1d_2d();
-    let Some(start) = ctx.lights.sample_emission(ctx.scene, u_pick, u_point, rng.next_2d()) else { return };
+    let Some(mut start) = ctx.lights.sample_emission(ctx.scene, u_pick, u_point, rng.next_2d()) else { return };
     if max_vertex_depth == 0 || !(start.density > 0.0) {
         return;
+    }
+    let emitter = &ctx.scene.materials[ctx.scene.triangles[start.triangle as usize].material as usize];
+    if let Some(w) = B::emission_weight(emitter, start.normal.dot(start.dir)) {
+        start.le *= w;
     }
     *rays += 1;
     let Some(hit) = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng) else { return };

@@ -942,3 +942,36 @@ fn panoramic_cameras_see_the_faces_around_them() {
     assert_eq!((img[corner], alpha[corner]), (Vec3::ZERO, 1.0));
     assert_eq!((img[centre], alpha[centre]), (Vec3::ZERO, 0.0));
 }
+
+/// An emitter under a clear coat (Cycles lays its Coat over Emission): a
+/// tinted coat of roughness 0.3 over a two-sided emitting panel under the
+/// ceiling of a closed box, and another facing the camera. Seen head-on,
+/// the panel's radiance is Emission × what the coat lets through
+/// (`coat::emission_weight`: 1 − E_layer(1, 0.3), times the tint); and
+/// every way the integrator finds the panel — light sampling, BSDF-sampled
+/// rays that hit it, light subpaths leaving it — must weigh it so, or the
+/// MIS-weighted render (all of them) would leave the image that light
+/// sampling alone gives (`--mis off`).
+#[test]
+fn an_emitter_under_a_coat_is_dimmed_and_tinted_by_every_strategy() {
+    use glint::bsdf::coat::emission_weight;
+    let mut scene = closed_box(0.6, 0.0);
+    let coated = glint::material::Material { double_sided: true, coat: 1.0, coat_roughness: 0.3, coat_tint: Vec3::new(0.5, 0.7, 1.0), ..common::emitter(Vec3::splat(4.0)) };
+    scene.materials.push(coated);
+    scene.triangles.extend(common::horizontal_quad(Vec3::new(0.0, 0.0, -0.3), 0.4, 0.9, false, 1));
+    // Facing the camera (at z = 0.3, looking down −Z), in the middle of
+    // the view: x, y in ±0.2 at z = −0.9.
+    let c = |x: f32, y: f32| Vec3::new(x, y, -0.9);
+    let (a, b, d, e) = (c(-0.1, -0.4), c(0.3, -0.4), c(0.3, 0.0), c(-0.1, 0.0));
+    scene.triangles.extend([common::triangle([a, b, d], 1), common::triangle([a, d, e], 1)]);
+    let scene = Scene::new(scene.triangles, scene.materials, scene.camera);
+    let (img, stats) = render(&scene, &RenderSettings { mis: true, ..settings(24, 24, 4, 1, 3) }, 2);
+    common::assert_clean(&img, &stats, "coated emitter");
+    let centre = img[12 * 24 + 12];
+    let seen = Vec3::splat(4.0) * emission_weight(&scene.materials[1], 1.0);
+    assert!(seen.x < 0.85 * seen.z && seen.z < 4.0 * 0.97, "the coat dims and tints: {seen}");
+    assert!((centre - seen).abs().max_element() < 0.01 * seen.max_element(), "seen head-on: {centre}, not {seen}");
+    let with = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(24, 24, 64, 4, 0) };
+    let without = RenderSettings { mis: false, ..with.clone() };
+    same_image_less_noise(&scene, &with, &without, "coated emitter, every strategy against light sampling alone");
+}

@@ -17,6 +17,13 @@
 //!   the layers below send through the coat: their weight × mix(1,
 //!   tint^(1/cosθt), c), θt the angle of wo refracted into the coat — a
 //!   path through a coat of unit thickness, as Cycles takes it.
+//! * Emission lies under the coat too, as in Cycles, which sets it up with
+//!   the weight the coat leaves the layers below: what leaves toward a
+//!   direction at cosine μ to the face is Emission × (1 − c·E_layer(μ,
+//!   r_c)) × mix(1, tint^(1/cosθt), c) (`emission_weight`). Every way
+//!   Glint finds an emitter takes μ about its geometric normal, so that
+//!   they agree (Cycles takes the interpolated normal: the same on a flat
+//!   emitter).
 //! * The coat's normal is the interpolated normal before a normal map, as
 //!   Cycles takes it where Coat Normal is unlinked: a normal map bends the
 //!   layers below, not the coat. Where the two differ the coat's lobe is
@@ -27,7 +34,7 @@
 use super::energy::{layer_fresnel, ms_fraction, ms_scale, tables, EnergyRows, TableRow, DIELECTRIC_ETA};
 use super::microfacet::{self, fresnel_dielectric};
 use super::{luminance, Bsdf, BsdfSample, SMOOTH_ALPHA_SQ, SPEC_MIN_SHARE};
-use crate::material::Surface;
+use crate::material::{Material, Surface};
 use crate::sampling::Frame;
 use glam::Vec2;
 use crate::Vec3;
@@ -62,19 +69,47 @@ impl CoatLayer {
     /// textured surface: its energy rows are not interpolated here (the
     /// tables are read in place), as `PrincipledLobes::new`'s.
     pub fn of(s: &Surface) -> Option<Self> {
-        let weight = s.coat.clamp(0.0, 1.0);
+        let n = s.coat_normal.normalize_or_zero();
+        let frame = (n.is_finite() && n != Vec3::ZERO && n != Vec3::Z).then(|| Frame::from_normal(n));
+        CoatLayer::new(s.coat, s.coat_roughness, s.coat_tint).map(|c| CoatLayer { frame, ..c })
+    }
+
+    /// A coat of this weight, roughness and tint about the shading normal;
+    /// None for weight 0.
+    fn new(weight: f32, roughness: f32, tint: Vec3) -> Option<Self> {
+        let weight = weight.clamp(0.0, 1.0);
         if !(weight > 0.0) {
             return None;
         }
-        let roughness = s.coat_roughness.clamp(0.0, 1.0);
+        let roughness = roughness.clamp(0.0, 1.0);
         let alpha = roughness * roughness;
         let smooth = alpha * alpha <= SMOOTH_ALPHA_SQ;
         let t = tables();
         let f_ms = if smooth { 0.0 } else { ms_fraction(t.e_avg(roughness), Vec3::splat(t.dielectric_f_avg)).x };
-        let tint = (s.coat_tint != Vec3::ONE).then(|| s.coat_tint.clamp(Vec3::ZERO, Vec3::ONE));
-        let n = s.coat_normal.normalize_or_zero();
-        let frame = (n.is_finite() && n != Vec3::ZERO && n != Vec3::Z).then(|| Frame::from_normal(n));
-        Some(CoatLayer { weight, roughness, alpha, smooth, row: TableRow::of(roughness), rows: None, f_ms, tint, frame })
+        let tint = (tint != Vec3::ONE).then(|| tint.clamp(Vec3::ZERO, Vec3::ONE));
+        Some(CoatLayer { weight, roughness, alpha, smooth, row: TableRow::of(roughness), rows: None, f_ms, tint, frame: None })
+    }
+
+    /// At cosine `mu` to the coat: its lobe's multiple-scattering scale
+    /// S_c, what it reflects (c·E_layer(μ), for a mirror c·F(μ)), and the
+    /// share of the light it lets through, tinted (Cycles'
+    /// `closure_layering_weight` and Coat Tint).
+    fn at(&self, mu: f32) -> (f32, f32, Vec3) {
+        // A mirror loses nothing to single scattering, and its albedo is
+        // the Fresnel reflectance itself.
+        let (s, albedo) = if self.smooth {
+            (1.0, fresnel_dielectric(mu, COAT_ETA))
+        } else {
+            let (e, albedo) = self.energies(mu);
+            (ms_scale(e, Vec3::splat(self.f_ms)).x, albedo)
+        };
+        let reflected = self.weight * albedo;
+        let mut through = Vec3::splat((1.0 - reflected).clamp(0.0, 1.0));
+        if let Some(tint) = self.tint {
+            let cos_t = (1.0 - (1.0 - mu * mu) / (COAT_ETA * COAT_ETA)).sqrt();
+            through *= Vec3::ONE.lerp(tint.powf(1.0 / cos_t), self.weight);
+        }
+        (s, reflected, through)
     }
 
     /// `of`, for a material whose surface is the same at every point: with
@@ -145,20 +180,7 @@ impl<B: Bsdf> WithCoat<B> {
             return WithCoat { base, coat: None, base_weight: Vec3::ONE, coat_probability: 0.0 };
         };
         let mu = layer.local(wo).z.clamp(0.0, 1.0);
-        // A mirror loses nothing to single scattering, and its albedo is
-        // the Fresnel reflectance itself.
-        let (s, albedo) = if layer.smooth {
-            (1.0, fresnel_dielectric(mu, COAT_ETA))
-        } else {
-            let (e, albedo) = layer.energies(mu);
-            (ms_scale(e, Vec3::splat(layer.f_ms)).x, albedo)
-        };
-        let reflected = layer.weight * albedo;
-        let mut base_weight = Vec3::splat((1.0 - reflected).clamp(0.0, 1.0));
-        if let Some(tint) = layer.tint {
-            let cos_t = (1.0 - (1.0 - mu * mu) / (COAT_ETA * COAT_ETA)).sqrt();
-            base_weight *= Vec3::ONE.lerp(tint.powf(1.0 / cos_t), layer.weight);
-        }
+        let (s, reflected, base_weight) = layer.at(mu);
         let below = luminance(base_weight) * base.reflectance();
         let mut coat_probability = if reflected + below > 0.0 { reflected / (reflected + below) } else { 1.0 };
         // As the Principled specular layer: a narrow lobe gets at least a
@@ -226,6 +248,11 @@ impl<B: Bsdf> Bsdf for WithCoat<B> {
         self.coat.map_or(0.0, |c| c.reflected) + luminance(self.base_weight) * self.base.reflectance()
     }
 
+    #[inline]
+    fn emission_weight(material: &Material, cos_out: f32) -> Option<Vec3> {
+        (material.coat > 0.0).then(|| emission_weight(material, cos_out))
+    }
+
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let p = self.coat_probability;
         let s = match &self.coat {
@@ -266,6 +293,13 @@ impl<B: Bsdf> Bsdf for WithCoat<B> {
         let weight = f * (s.wi.z.abs() / pdf);
         (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { f, pdf, weight, ..s })
     }
+}
+
+/// What of a coated material's emission leaves through its coat toward a
+/// direction at cosine `cos_out` to its face (either side): the share the
+/// coat lets through there, tinted, as Cycles weighs the emission under it.
+pub fn emission_weight(material: &Material, cos_out: f32) -> Vec3 {
+    CoatLayer::new(material.coat, material.coat_roughness, material.coat_tint).map_or(Vec3::ONE, |c| c.at(cos_out.abs().min(1.0)).2)
 }
 
 #[cfg(test)]
@@ -371,6 +405,32 @@ mod tests {
         assert!(s.delta && s.wi == Vec3::new(-wo.x, -wo.y, wo.z) && (s.f.x - 0.8 * fresnel).abs() < 1e-6, "{s:?}");
         let base = WithGlass::<PrincipledBsdf>::new(&coated(Vec3::new(0.5, 0.5, 0.5), 0.0, 0.5, 0.0, 0.0), wo);
         assert_eq!(bsdf.eval(wo, s.wi), base.eval(wo, s.wi) * bsdf.base_weight);
+    }
+
+    /// Emission under a coat keeps what the coat lets through toward its
+    /// direction, the weight the layers below get for that wo: the same
+    /// numbers, on either face, and all of it without a coat; less toward
+    /// grazing, where the coat reflects more; finite at every angle.
+    #[test]
+    fn emission_under_a_coat_keeps_what_the_layers_below_keep() {
+        let surface = Surface { coat_tint: Vec3::new(0.4, 0.8, 1.0), ..coated(Vec3::ONE, 0.0, 0.5, 0.7, 0.3) };
+        let material = Material { coat: 0.7, coat_roughness: 0.3, coat_tint: surface.coat_tint, ..Material::default() };
+        for theta in [0.0f32, 40.0, 75.0] {
+            let wo = dir_at(theta);
+            let below = Coated::new(&surface, wo).base_weight;
+            for cos in [wo.z, -wo.z] {
+                assert!((emission_weight(&material, cos) - below).abs().max_element() < 1e-6, "{theta}°: {} against {below}", emission_weight(&material, cos));
+            }
+        }
+        assert!(emission_weight(&material, 0.2).z < emission_weight(&material, 0.9).z);
+        assert_eq!(emission_weight(&Material::default(), 0.5), Vec3::ONE);
+        for roughness in [0.0, 0.01, 0.5, 1.0] {
+            let m = Material { coat: 1.0, coat_roughness: roughness, ..material.clone() };
+            for cos in [-1.0, -1e-7, 0.0, 1e-7, 0.3, 1.0, 1.5] {
+                let w = emission_weight(&m, cos);
+                assert!(w.is_finite() && w.min_element() >= 0.0 && w.max_element() <= 1.0, "roughness {roughness}, cos {cos}: {w}");
+            }
+        }
     }
 
     /// Coat Tint colours what crosses the coat: under a smooth coat the

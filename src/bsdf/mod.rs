@@ -19,7 +19,7 @@
 //! a lobe with probability `spec_probability` and reports the mixture pdf, so
 //! `f·cos/pdf` is an unbiased one-sample estimate whatever the choice.
 
-use crate::material::Surface;
+use crate::material::{Material, Surface};
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::Vec2;
 use crate::Vec3;
@@ -328,6 +328,13 @@ pub trait Bsdf: Sized {
     /// layer above it to weigh its samples against (coat.rs).
     fn reflectance(&self) -> f32 {
         1.0
+    }
+    /// What of `material`'s emission leaves toward a direction at cosine
+    /// `cos_out` to its face, where a layer over it (a coat, coat.rs)
+    /// takes some; None where the model lays nothing over emission.
+    #[inline]
+    fn emission_weight(_material: &Material, _cos_out: f32) -> Option<Vec3> {
+        None
     }
 }
 
