@@ -90,6 +90,11 @@ pub struct MaterialTextures {
     pub emissive: Option<TextureSlot>,
     /// R × transmissionFactor (KHR_materials_transmission).
     pub transmission: Option<TextureSlot>,
+    /// R × clearcoatFactor and G × clearcoatRoughnessFactor
+    /// (KHR_materials_clearcoat; Blender's exporter writes one image for
+    /// both where Coat Weight and Roughness come from its channels).
+    pub coat: Option<TextureSlot>,
+    pub coat_roughness: Option<TextureSlot>,
     /// Tangent-space normal map and its scale (normalTexture.scale).
     pub normal: Option<(TextureSlot, f32)>,
 }

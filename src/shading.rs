@@ -64,6 +64,12 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
         if let Some(slot) = &t.transmission {
             s.transmission *= slot.sample(&scene.images, &uv, Encoding::Linear).x;
         }
+        if let Some(slot) = &t.coat {
+            s.coat *= slot.sample(&scene.images, &uv, Encoding::Linear).x;
+        }
+        if let Some(slot) = &t.coat_roughness {
+            s.coat_roughness *= slot.sample(&scene.images, &uv, Encoding::Linear).y;
+        }
         // A normal map bends the layers below the coat, not the coat.
         if t.normal.is_some() && m.is_coated() {
             s.coat_normal = b.mix(&scene.triangles[triangle as usize].n()).normalize_or_zero();
@@ -72,6 +78,8 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
     s.base_color = s.base_color.clamp(Vec3::ZERO, Vec3::ONE);
     s.metallic = s.metallic.clamp(0.0, 1.0);
     s.roughness = s.roughness.clamp(0.0, 1.0);
+    s.coat = s.coat.clamp(0.0, 1.0);
+    s.coat_roughness = s.coat_roughness.clamp(0.0, 1.0);
     s
 }
 
@@ -177,6 +185,19 @@ mod tests {
         assert_eq!((left.roughness, left.metallic), (0.5, 0.0));
         let right = surface_at(&s, &s.materials[0], 0, Barycentric::new(0.8, 0.1));
         assert!((right.roughness - 0.5 * 128.0 / 255.0).abs() < 1e-6 && right.metallic == 1.0);
+    }
+
+    /// KHR_materials_clearcoat's textures: R scales the coat's weight, G
+    /// its roughness (one image for both, as Blender's exporter writes).
+    #[test]
+    fn coat_textures_scale_the_coat_factors() {
+        let mut m = textured(MaterialTextures { coat: Some(slot()), coat_roughness: Some(slot()), ..Default::default() });
+        (m.coat, m.coat_roughness) = (0.8, 0.5);
+        let s = scene(m, [[255, 128, 0, 255], [0, 255, 0, 255]]);
+        let left = surface_at(&s, &s.materials[0], 0, Barycentric::new(0.1, 0.1));
+        assert!(left.coat == 0.8 && (left.coat_roughness - 0.5 * 128.0 / 255.0).abs() < 1e-6, "{} {}", left.coat, left.coat_roughness);
+        let right = surface_at(&s, &s.materials[0], 0, Barycentric::new(0.8, 0.1));
+        assert_eq!((right.coat, right.coat_roughness), (0.0, 0.5));
     }
 
     #[test]

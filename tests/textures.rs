@@ -271,3 +271,27 @@ fn an_environment_map_lights_a_diffuse_quad() {
         assert!((mean - 0.5).abs() < 0.015, "mis {mis}: {mean}");
     }
 }
+
+/// KHR_materials_clearcoat's weight and roughness textures, as Blender's
+/// exporter writes them (one image, R and G): a black quad whose left
+/// texel has a smooth coat and whose right one has none, under a white
+/// World. The coat reflects the World, F(μ) of IOR 1.5 (0.04 head-on, a
+/// little more off the axis); without it the quad is black. A texture
+/// reference that is not a texture info is no texture.
+#[test]
+fn coat_textures_scale_the_coat() {
+    let coat = json!({"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 1.0, "clearcoatTexture": {"index": 0}, "clearcoatRoughnessTexture": {"index": 0}});
+    let material = |coat: Value| json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+        "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}, "KHR_materials_clearcoat": coat}
+    });
+    let mut scene = load(&quad_gltf(material(coat), vec![png(2, &[[255, 0, 0, 255], [0, 0, 0, 255]])], None));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let (left, right) = halves(&mut scene, Vec3::ONE);
+    assert!(left.min_element() > 0.04 && left.max_element() < 0.06, "a smooth coat reflects F(μ) of the World: {left}");
+    close(right, Vec3::ZERO, "no coat");
+    let mut untextured = load(&quad_gltf(material(json!({"clearcoatFactor": 1.0, "clearcoatTexture": "image"})), vec![png(2, &[RED, BLUE])], None));
+    assert!(untextured.materials[0].textures.is_none());
+    let (left, right) = halves(&mut untextured, Vec3::ONE);
+    close(left, right, "the coat's factor everywhere");
+}

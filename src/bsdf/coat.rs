@@ -23,7 +23,8 @@
 //!   r_c)) × mix(1, tint^(1/cosθt), c) (`emission_weight`). Every way
 //!   Glint finds an emitter takes μ about its geometric normal, so that
 //!   they agree (Cycles takes the interpolated normal: the same on a flat
-//!   emitter).
+//!   emitter), and the coat's factors, not its textures (which light
+//!   sampling would have to read at every sample).
 //! * The coat's normal is the interpolated normal before a normal map, as
 //!   Cycles takes it where Coat Normal is unlinked: a normal map bends the
 //!   layers below, not the coat. Where the two differ the coat's lobe is

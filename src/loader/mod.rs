@@ -426,6 +426,10 @@ impl<'a> Builder<'a> {
         let metallic_roughness = pbr.metallic_roughness_texture.as_ref().map(info);
         let emissive = m.emissive_texture.as_ref().map(info);
         let transmission = m.extensions.as_ref().and_then(|e| e.transmission.as_ref()).and_then(|t| t.transmission_texture.as_ref()).map(info);
+        // gltf-json leaves KHR_materials_clearcoat as JSON: its texture
+        // infos are read here, a malformed one as none.
+        let coat_info = |key: &str| clearcoat_extension(m).and_then(|c| c.get(key)).and_then(|v| serde_json::from_value::<gltf::json::texture::Info>(v.clone()).ok());
+        let (coat_weight_info, coat_roughness_info) = (coat_info("clearcoatTexture"), coat_info("clearcoatRoughnessTexture"));
         // The normal texture's transform sits in its extension's free map.
         let normal_transform = m
             .normal_texture
@@ -445,6 +449,8 @@ impl<'a> Builder<'a> {
             metallic_roughness: slot(metallic_roughness)?,
             emissive: slot(emissive)?,
             transmission: slot(transmission)?,
+            coat: slot(coat_weight_info.as_ref().map(info))?,
+            coat_roughness: slot(coat_roughness_info.as_ref().map(info))?,
             normal: match normal {
                 Some((r, scale)) => slot(Some(r))?.map(|s| (s, scale)),
                 None => None,
@@ -639,9 +645,9 @@ impl<'a> Builder<'a> {
         if self.images.unsupported_sets > 0 {
             w.push(format!("{} texture reference(s) use a texture coordinate set above 1: TEXCOORD_1 is read instead", self.images.unsupported_sets));
         }
-        let coat_textures = self.root.materials.iter().filter(|m| has_coat_texture(m)).count();
-        if coat_textures > 0 {
-            w.push(format!("{coat_textures} material(s) have clearcoat textures, which are not read yet: their coat factors are used"));
+        let coat_normals = self.root.materials.iter().filter(|m| has_coat_normal_texture(m)).count();
+        if coat_normals > 0 {
+            w.push(format!("{coat_normals} material(s) have a clearcoat normal texture, which is not read yet: their coats keep the interpolated normal"));
         }
         let unsupported: Vec<&str> = self.root.extensions_used.iter().map(String::as_str).filter(|e| !RENDERED.contains(e)).collect();
         if !unsupported.is_empty() {
@@ -668,7 +674,7 @@ fn push_column<T: Copy>(column: &mut Vec<T>, before: usize, value: Option<T>, de
 /// What a material's textures read from its primitives.
 fn needs_of(t: &MaterialTextures) -> Needs {
     let mut needs = Needs::default();
-    for slot in [&t.base_color, &t.metallic_roughness, &t.emissive, &t.transmission].into_iter().flatten() {
+    for slot in [&t.base_color, &t.metallic_roughness, &t.emissive, &t.transmission, &t.coat, &t.coat_roughness].into_iter().flatten() {
         needs.uv[slot.texcoord as usize] = true;
     }
     if let Some((slot, _)) = &t.normal {
@@ -763,15 +769,15 @@ fn clearcoat_extension(m: &gltf::json::Material) -> Option<&serde_json::Value> {
     m.extensions.as_ref().and_then(|e| e.others.get("KHR_materials_clearcoat"))
 }
 
-/// Whether a material's KHR_materials_clearcoat names a texture.
-fn has_coat_texture(m: &gltf::json::Material) -> bool {
-    let coat = clearcoat_extension(m);
-    ["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"].iter().any(|key| coat.and_then(|c| c.get(key)).is_some())
+/// Whether a material's KHR_materials_clearcoat has a normal texture (the
+/// coat's own normal map), which is not read.
+fn has_coat_normal_texture(m: &gltf::json::Material) -> bool {
+    clearcoat_extension(m).and_then(|c| c.get("clearcoatNormalTexture")).is_some()
 }
 
 /// KHR_materials_clearcoat's factors (weight, roughness), each 0 where
-/// absent or not a number, clamped to [0, 1]. Its textures are not read
-/// (`has_coat_texture` warns of them).
+/// absent or not a number, clamped to [0, 1]; its weight and roughness
+/// textures scale them (`material_textures`).
 fn clearcoat(extension: Option<&serde_json::Value>) -> (f32, f32) {
     let factor = |name: &str| extension.and_then(|e| e.get(name)).and_then(serde_json::Value::as_f64).map_or(0.0, |v| finite_or(v as f32, 0.0).clamp(0.0, 1.0));
     (factor("clearcoatFactor"), factor("clearcoatRoughnessFactor"))
