@@ -95,6 +95,10 @@ pub struct MaterialTextures {
     /// both where Coat Weight and Roughness come from its channels).
     pub coat: Option<TextureSlot>,
     pub coat_roughness: Option<TextureSlot>,
+    /// The coat's own tangent-space normal map and its scale
+    /// (clearcoatNormalTexture: Blender's Coat Normal from a Normal Map
+    /// node), in the same tangent frame as `normal`.
+    pub coat_normal: Option<(TextureSlot, f32)>,
     /// Tangent-space normal map and its scale (normalTexture.scale).
     pub normal: Option<(TextureSlot, f32)>,
 }

@@ -6,7 +6,7 @@
 
 use crate::material::{AlphaMode, Material, Surface};
 use crate::scene::Scene;
-use crate::texture::Encoding;
+use crate::texture::{Encoding, TextureSlot};
 use glam::{Vec2, Vec4};
 use crate::Vec3;
 use std::ops::{Add, Mul};
@@ -70,9 +70,14 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
         if let Some(slot) = &t.coat_roughness {
             s.coat_roughness *= slot.sample(&scene.images, &uv, Encoding::Linear).y;
         }
-        // A normal map bends the layers below the coat, not the coat.
-        if t.normal.is_some() && m.is_coated() {
-            s.coat_normal = b.mix(&scene.triangles[triangle as usize].n()).normalize_or_zero();
+        // A normal map bends the layers below the coat, not the coat,
+        // which keeps the interpolated normal or is bent by its own map.
+        if (t.normal.is_some() || t.coat_normal.is_some()) && m.is_coated() {
+            let n = b.mix(&scene.triangles[triangle as usize].n()).normalize_or_zero();
+            s.coat_normal = match &t.coat_normal {
+                Some((slot, scale)) if n != Vec3::ZERO => normal_mapped(scene, slot, *scale, triangle, b, n),
+                _ => n,
+            };
         }
     }
     s.base_color = s.base_color.clamp(Vec3::ZERO, Vec3::ONE);
@@ -128,7 +133,14 @@ pub fn stops_ray(scene: &Scene, triangle: u32, b1: f32, b2: f32, u: &mut impl Fn
 /// (x, y, z) = (2·texel − 1)·(scale, scale, 1), B = sign·(N × T) — what
 /// Cycles' Normal Map node computes from MikkTSpace tangents.
 pub fn mapped_normal(scene: &Scene, m: &Material, triangle: u32, b: Barycentric, n: Vec3) -> Vec3 {
-    let Some((slot, scale)) = m.textures.as_ref().and_then(|t| t.normal.as_ref()) else { return n };
+    match m.textures.as_ref().and_then(|t| t.normal.as_ref()) {
+        Some((slot, scale)) => normal_mapped(scene, slot, *scale, triangle, b, n),
+        None => n,
+    }
+}
+
+/// `n` bent by the tangent-space normal map in `slot` (`mapped_normal`).
+fn normal_mapped(scene: &Scene, slot: &TextureSlot, scale: f32, triangle: u32, b: Barycentric, n: Vec3) -> Vec3 {
     let Some(corners) = scene.attributes.tangent.get(triangle as usize) else { return n };
     let t4 = b.mix(corners);
     let sign = if t4.w < 0.0 { -1.0 } else { 1.0 };
@@ -140,7 +152,7 @@ pub fn mapped_normal(scene: &Scene, m: &Material, triangle: u32, b: Barycentric,
     }
     let bitangent = sign * n.cross(t);
     let texel = slot.sample(&scene.images, &texture_coordinates(scene, triangle, b), Encoding::Linear);
-    let v = (Vec3::from_vec4(texel) * 2.0 - Vec3::ONE) * Vec3::new(*scale, *scale, 1.0);
+    let v = (Vec3::from_vec4(texel) * 2.0 - Vec3::ONE) * Vec3::new(scale, scale, 1.0);
     let mapped = (t * v.x + bitangent * v.y + n * v.z).normalize_or_zero();
     if mapped.is_finite() && mapped != Vec3::ZERO { mapped } else { n }
 }
@@ -198,6 +210,23 @@ mod tests {
         assert!(left.coat == 0.8 && (left.coat_roughness - 0.5 * 128.0 / 255.0).abs() < 1e-6, "{} {}", left.coat, left.coat_roughness);
         let right = surface_at(&s, &s.materials[0], 0, Barycentric::new(0.8, 0.1));
         assert_eq!((right.coat, right.coat_roughness), (0.0, 0.5));
+    }
+
+    /// A coat's own normal map bends the coat and not the layers below:
+    /// the texel (0.85, 0.5, 0.85) tilts it 45° toward the tangent (+x); the
+    /// base keeps the interpolated normal, and so does a coat whose map
+    /// is the base's alone.
+    #[test]
+    fn a_coat_normal_map_bends_the_coat_alone() {
+        let coated = |t: MaterialTextures| Material { coat: 1.0, ..textured(t) };
+        let s = scene(coated(MaterialTextures { coat_normal: Some((slot(), 1.0)), ..Default::default() }), [[218, 128, 218, 255]; 2]);
+        let b = Barycentric::new(0.2, 0.2);
+        let coat = surface_at(&s, &s.materials[0], 0, b).coat_normal;
+        assert!((coat - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 0.01, "{coat}");
+        assert_eq!(mapped_normal(&s, &s.materials[0], 0, b, Vec3::Z), Vec3::Z);
+        let s = scene(coated(MaterialTextures { normal: Some((slot(), 1.0)), ..Default::default() }), [[218, 128, 218, 255]; 2]);
+        assert_eq!(surface_at(&s, &s.materials[0], 0, b).coat_normal, Vec3::Z);
+        assert!(mapped_normal(&s, &s.materials[0], 0, b, Vec3::Z).x > 0.69);
     }
 
     #[test]

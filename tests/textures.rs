@@ -276,8 +276,9 @@ fn an_environment_map_lights_a_diffuse_quad() {
 /// exporter writes them (one image, R and G): a black quad whose left
 /// texel has a smooth coat and whose right one has none, under a white
 /// World. The coat reflects the World, F(μ) of IOR 1.5 (0.04 head-on, a
-/// little more off the axis); without it the quad is black. A texture
-/// reference that is not a texture info is no texture.
+/// little more off the axis); without it the quad is black. The coat's
+/// normal texture is read with its scale (shading.rs bends the coat by
+/// it). A texture reference that is not a texture info is no texture.
 #[test]
 fn coat_textures_scale_the_coat() {
     let coat = json!({"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 1.0, "clearcoatTexture": {"index": 0}, "clearcoatRoughnessTexture": {"index": 0}});
@@ -290,6 +291,10 @@ fn coat_textures_scale_the_coat() {
     let (left, right) = halves(&mut scene, Vec3::ONE);
     assert!(left.min_element() > 0.04 && left.max_element() < 0.06, "a smooth coat reflects F(μ) of the World: {left}");
     close(right, Vec3::ZERO, "no coat");
+    // The coat's normal map, with its scale, and the tangents it needs.
+    let bumpy = load(&quad_gltf(material(json!({"clearcoatFactor": 1.0, "clearcoatNormalTexture": {"index": 0, "scale": 0.5}})), vec![png(2, &[RED, BLUE])], None));
+    let textures = bumpy.materials[0].textures.as_ref().unwrap();
+    assert!(textures.coat_normal.as_ref().is_some_and(|(_, scale)| *scale == 0.5) && !bumpy.attributes.tangent.is_empty());
     let mut untextured = load(&quad_gltf(material(json!({"clearcoatFactor": 1.0, "clearcoatTexture": "image"})), vec![png(2, &[RED, BLUE])], None));
     assert!(untextured.materials[0].textures.is_none());
     let (left, right) = halves(&mut untextured, Vec3::ONE);

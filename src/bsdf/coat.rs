@@ -195,17 +195,24 @@ impl<B: Bsdf> WithCoat<B> {
 
     /// The coat's lobe alone (0 for a mirror coat, which only sampling
     /// finds), in its own frame: a solid-angle pdf is the same in any.
+    /// The integrator weighs f by the cosine about the shading normal; a
+    /// coat with a normal of its own is weighed, as Cycles weighs each
+    /// closure, by the cosine about that: f carries their ratio.
     fn coat_eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         let Some(c) = &self.coat else { return (Vec3::ZERO, 0.0) };
         // Above both the shading surface and the coat, as its samples are.
         if c.smooth || !(wo.z > 0.0 && wi.z > 0.0) {
             return (Vec3::ZERO, 0.0);
         }
+        let shading_cos = wi.z;
         let (wo, wi) = (c.local(wo), c.local(wi));
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (Vec3::ZERO, 0.0);
         }
-        let (lobe, pdf) = microfacet::eval_pdf(wo, wi, c.alpha);
+        let (mut lobe, pdf) = microfacet::eval_pdf(wo, wi, c.alpha);
+        if c.frame.is_some() {
+            lobe *= wi.z / shading_cos;
+        }
         (Vec3::splat(c.scale * layer_fresnel(microfacet::cos_half(wo, wi)) * lobe), pdf)
     }
 }

@@ -430,6 +430,8 @@ impl<'a> Builder<'a> {
         // infos are read here, a malformed one as none.
         let coat_info = |key: &str| clearcoat_extension(m).and_then(|c| c.get(key)).and_then(|v| serde_json::from_value::<gltf::json::texture::Info>(v.clone()).ok());
         let (coat_weight_info, coat_roughness_info) = (coat_info("clearcoatTexture"), coat_info("clearcoatRoughnessTexture"));
+        let coat_normal_info = clearcoat_extension(m).and_then(|c| c.get("clearcoatNormalTexture")).and_then(|v| serde_json::from_value::<gltf::json::material::NormalTexture>(v.clone()).ok());
+        let coat_normal_transform = coat_normal_info.as_ref().and_then(|n| n.extensions.as_ref()).and_then(|e| e.others.get("KHR_texture_transform")).and_then(|v| serde_json::from_value(v.clone()).ok());
         // The normal texture's transform sits in its extension's free map.
         let normal_transform = m
             .normal_texture
@@ -451,6 +453,10 @@ impl<'a> Builder<'a> {
             transmission: slot(transmission)?,
             coat: slot(coat_weight_info.as_ref().map(info))?,
             coat_roughness: slot(coat_roughness_info.as_ref().map(info))?,
+            coat_normal: match &coat_normal_info {
+                Some(n) => slot(Some(TextureRef { index: n.index.value(), tex_coord: n.tex_coord, transform: coat_normal_transform.as_ref() }))?.map(|s| (s, finite_or(n.scale, 1.0))),
+                None => None,
+            },
             normal: match normal {
                 Some((r, scale)) => slot(Some(r))?.map(|s| (s, scale)),
                 None => None,
@@ -645,10 +651,6 @@ impl<'a> Builder<'a> {
         if self.images.unsupported_sets > 0 {
             w.push(format!("{} texture reference(s) use a texture coordinate set above 1: TEXCOORD_1 is read instead", self.images.unsupported_sets));
         }
-        let coat_normals = self.root.materials.iter().filter(|m| has_coat_normal_texture(m)).count();
-        if coat_normals > 0 {
-            w.push(format!("{coat_normals} material(s) have a clearcoat normal texture, which is not read yet: their coats keep the interpolated normal"));
-        }
         let unsupported: Vec<&str> = self.root.extensions_used.iter().map(String::as_str).filter(|e| !RENDERED.contains(e)).collect();
         if !unsupported.is_empty() {
             w.push(format!("not rendered yet, ignored: {}", unsupported.join(", ")));
@@ -677,7 +679,8 @@ fn needs_of(t: &MaterialTextures) -> Needs {
     for slot in [&t.base_color, &t.metallic_roughness, &t.emissive, &t.transmission, &t.coat, &t.coat_roughness].into_iter().flatten() {
         needs.uv[slot.texcoord as usize] = true;
     }
-    if let Some((slot, _)) = &t.normal {
+    // Tangents for one set: the base's normal map's, else the coat's.
+    for (slot, _) in [&t.coat_normal, &t.normal].into_iter().flatten() {
         needs.uv[slot.texcoord as usize] = true;
         needs.normal_map_set = Some(slot.texcoord as usize);
     }
@@ -769,15 +772,10 @@ fn clearcoat_extension(m: &gltf::json::Material) -> Option<&serde_json::Value> {
     m.extensions.as_ref().and_then(|e| e.others.get("KHR_materials_clearcoat"))
 }
 
-/// Whether a material's KHR_materials_clearcoat has a normal texture (the
-/// coat's own normal map), which is not read.
-fn has_coat_normal_texture(m: &gltf::json::Material) -> bool {
-    clearcoat_extension(m).and_then(|c| c.get("clearcoatNormalTexture")).is_some()
-}
-
 /// KHR_materials_clearcoat's factors (weight, roughness), each 0 where
 /// absent or not a number, clamped to [0, 1]; its weight and roughness
-/// textures scale them (`material_textures`).
+/// textures scale them, and its normal texture bends the coat
+/// (`material_textures`).
 fn clearcoat(extension: Option<&serde_json::Value>) -> (f32, f32) {
     let factor = |name: &str| extension.and_then(|e| e.get(name)).and_then(serde_json::Value::as_f64).map_or(0.0, |v| finite_or(v as f32, 0.0).clamp(0.0, 1.0));
     (factor("clearcoatFactor"), factor("clearcoatRoughnessFactor"))
