@@ -483,6 +483,16 @@ mod tests {
         let coat_only = |wi: Vec3| bsdf.coat_eval_pdf(wo, wi).0.x;
         let untilted = Vec3::new(-wo.x, -wo.y, wo.z);
         assert!(coat_only(expected) > 10.0 * coat_only(untilted), "{} vs {}", coat_only(expected), coat_only(untilted));
+        // Weighed by the cosine about its own normal, as Cycles weighs a
+        // closure: f · cos about the shading normal, which the integrator
+        // takes, is the upright coat's f · cos about the tilted one, for
+        // the same directions turned into the coat's frame.
+        let upright = Coated::new(&Surface { coat_roughness: 0.2, coat_normal: Vec3::ZERO, ..m }, Frame::from_normal(tilted).to_local(wo));
+        for wi in [expected, Vec3::new(0.1, 0.4, 0.9).normalize(), Vec3::new(-0.5, 0.2, 0.6).normalize()] {
+            let (wo_c, wi_c) = (Frame::from_normal(tilted).to_local(wo), Frame::from_normal(tilted).to_local(wi));
+            let (here, there) = (coat_only(wi) * wi.z, upright.coat_eval_pdf(wo_c, wi_c).0.x * wi_c.z);
+            assert!((here - there).abs() <= 1e-4 * there, "{wi}: {here} against {there}");
+        }
     }
 
     /// Roughness to 0, grazing and back-facing directions: finite,
