@@ -50,8 +50,8 @@ def export_scene(path, frame, subframe):
     # ('current_paths'): it goes out as a perspective one, which carries
     # its transform and clip distances, and the request carries its
     # panorama (`camera_lens`).
-    panoramic = {i.object.data for i in bpy.context.evaluated_depsgraph_get().object_instances if i.object.type == "CAMERA" and i.object.data.type == "PANO"}
-    panoramic = [bpy.data.cameras[c.name] for c in panoramic]
+    instances = bpy.context.evaluated_depsgraph_get().object_instances
+    panoramic = {i.object.original.data for i in instances if i.object.type == "CAMERA" and i.object.data.type == "PANO"}
     try:
         for camera in panoramic:
             camera.type = "PERSP"

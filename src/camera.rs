@@ -340,9 +340,9 @@ impl Lens<'_> {
         Some(CameraRay { origin, dir, tmin: near * stretch, tmax: far * stretch })
     }
 
-    /// `ray` for a panorama: kept apart, so that the other cameras' rays
-    /// stay as short as they were (a perspective camera's 1-spp render had
-    /// run 1.2% more instructions with it inline).
+    /// `ray` for a panorama, kept out of line: the other cameras' rays,
+    /// inlined where the render loop makes them, stay as short as they
+    /// were.
     #[inline(never)]
     fn panoramic_ray(&self, p: &Panorama, pixel: Vec2) -> Option<CameraRay> {
         let c = self.camera;

@@ -426,11 +426,9 @@ impl<'a> Builder<'a> {
         let metallic_roughness = pbr.metallic_roughness_texture.as_ref().map(info);
         let emissive = m.emissive_texture.as_ref().map(info);
         let transmission = m.extensions.as_ref().and_then(|e| e.transmission.as_ref()).and_then(|t| t.transmission_texture.as_ref()).map(info);
-        // gltf-json leaves KHR_materials_clearcoat as JSON: its texture
-        // infos are read here, a malformed one as none.
-        let coat_info = |key: &str| clearcoat_extension(m).and_then(|c| c.get(key)).and_then(|v| serde_json::from_value::<gltf::json::texture::Info>(v.clone()).ok());
-        let (coat_weight_info, coat_roughness_info) = (coat_info("clearcoatTexture"), coat_info("clearcoatRoughnessTexture"));
-        let coat_normal_info = clearcoat_extension(m).and_then(|c| c.get("clearcoatNormalTexture")).and_then(|v| serde_json::from_value::<gltf::json::material::NormalTexture>(v.clone()).ok());
+        let coat_weight_info: Option<gltf::json::texture::Info> = clearcoat_field(m, "clearcoatTexture");
+        let coat_roughness_info: Option<gltf::json::texture::Info> = clearcoat_field(m, "clearcoatRoughnessTexture");
+        let coat_normal_info: Option<gltf::json::material::NormalTexture> = clearcoat_field(m, "clearcoatNormalTexture");
         let coat_normal_transform = coat_normal_info.as_ref().and_then(|n| n.extensions.as_ref()).and_then(|e| e.others.get("KHR_texture_transform")).and_then(|v| serde_json::from_value(v.clone()).ok());
         // The normal texture's transform sits in its extension's free map.
         let normal_transform = m
@@ -770,6 +768,12 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
 /// A material's KHR_materials_clearcoat, which gltf-json leaves as JSON.
 fn clearcoat_extension(m: &gltf::json::Material) -> Option<&serde_json::Value> {
     m.extensions.as_ref().and_then(|e| e.others.get("KHR_materials_clearcoat"))
+}
+
+/// A texture info of a material's KHR_materials_clearcoat, which gltf-json
+/// leaves as JSON; a malformed one is none.
+fn clearcoat_field<T: serde::de::DeserializeOwned>(m: &gltf::json::Material, key: &str) -> Option<T> {
+    clearcoat_extension(m).and_then(|c| c.get(key)).and_then(|v| serde_json::from_value(v.clone()).ok())
 }
 
 /// KHR_materials_clearcoat's factors (weight, roughness), each 0 where
