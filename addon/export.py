@@ -271,8 +271,6 @@ def render_request(depsgraph, job, width, height):
         lens = camera_lens(scene, scene.camera)
         if lens:
             request["lens"] = lens
-        if scene.camera.type == "CAMERA" and scene.camera.data.type == "PANO" and scene.camera.data.dof.use_dof:
-            warnings.append(f"{scene.camera.name}: Depth of Field on a panoramic camera is not rendered by Glint")
     return request, warnings
 
 
@@ -290,8 +288,7 @@ def camera_lens(scene, camera):
         if data.shift_x or data.shift_y:
             lens["shift"] = [data.shift_x, data.shift_y]
         lens["panorama"] = panorama(scene, data)
-        return lens
-    if data.shift_x or data.shift_y:
+    elif data.shift_x or data.shift_y:
         # Blender's shift is in units of the view's fitted side (the larger
         # one under Auto); the request's, in fractions of each side.
         render = scene.render

@@ -180,9 +180,6 @@ impl Camera {
         }
         if let Some(p) = &panorama {
             p.check()?;
-            if aperture.is_some_and(|a| a.radius > 0.0) {
-                return Err("depth of field on a panoramic camera is not rendered; leave out the aperture".into());
-            }
             self.projection = Projection::Panoramic(*p);
         }
         self.shift = shift;
@@ -316,7 +313,7 @@ impl Lens<'_> {
         let c = self.camera;
         let [near, far] = c.clip;
         if let Some(p) = &self.panorama {
-            return self.panoramic_ray(p, pixel);
+            return self.panoramic_ray(p, pixel, aperture_u);
         }
         let s = Vec2::new((2.0 * pixel.x / self.width - 1.0) * self.half_height * self.aspect, (1.0 - 2.0 * pixel.y / self.height) * self.half_height) + self.shift;
         let lens = self.aperture_point(aperture_u);
@@ -343,15 +340,30 @@ impl Lens<'_> {
     /// `ray` for a panorama, kept out of line: the other cameras' rays,
     /// inlined where the render loop makes them, stay as short as they
     /// were.
+    ///
+    /// With an aperture, as Cycles does it: the ray leaves a point of the
+    /// aperture set across the pinhole ray d, on axes u along the
+    /// panorama's forward x with d's share of it taken off, and v = d × u,
+    /// toward d's point at the focus distance (along the ray, not a
+    /// depth): every ray of an image point meets there.
     #[inline(never)]
-    fn panoramic_ray(&self, p: &Panorama, pixel: Vec2) -> Option<CameraRay> {
+    fn panoramic_ray(&self, p: &Panorama, pixel: Vec2, aperture_u: Vec2) -> Option<CameraRay> {
         let c = self.camera;
         // (u, v) from the view's bottom-left corner, as Cycles' raster.
         let uv = Vec2::new(pixel.x / self.width, 1.0 - pixel.y / self.height) + c.shift;
-        let d = p.direction(uv)?;
-        let dir = if p.is_mirrorball() { c.right * d.x - c.forward * d.y + c.up * d.z } else { c.forward * d.x - c.right * d.y + c.up * d.z };
+        let mut d = p.direction(uv)?;
+        let mut origin = Vec3::ZERO;
+        if let Some(a) = &c.aperture {
+            let l = a.sample(aperture_u);
+            // Straight along x (a fisheye's centre) any axes across d do.
+            let u = (Vec3::X - d.x * d).try_normalize().unwrap_or(Vec3::Y);
+            let v = d.cross(u);
+            origin = u * l.x + v * l.y;
+            d = (d * a.focus_distance - origin).normalize();
+        }
+        let world = |w: Vec3| if p.is_mirrorball() { c.right * w.x - c.forward * w.y + c.up * w.z } else { c.forward * w.x - c.right * w.y + c.up * w.z };
         // Clip Start and End are distances along a panorama's rays.
-        Some(CameraRay { origin: c.position, dir, tmin: c.clip[0], tmax: c.clip[1] })
+        Some(CameraRay { origin: c.position + world(origin), dir: world(d), tmin: c.clip[0], tmax: c.clip[1] })
     }
 
     /// The point of the aperture drawn from `aperture_u`, as an offset from
@@ -700,6 +712,37 @@ mod tests {
         // A closed aperture is no aperture.
         cam.set_lens(Vec2::ZERO, Some(Aperture { radius: 0.0, ..good }), None).unwrap();
         assert!(cam.aperture.is_none());
+    }
+
+    /// A panorama with an aperture focuses every ray of an image point on
+    /// one point, at the focus distance along its pinhole ray, from points
+    /// of the aperture set across that ray; without one, every ray leaves
+    /// the camera's centre. Straight ahead (a fisheye's centre) too.
+    #[test]
+    fn a_panoramas_rays_focus_at_the_focus_distance() {
+        use crate::panorama::Panorama;
+        let aperture = Aperture { radius: 0.2, focus_distance: 3.0, blades: 6, rotation: 0.2, ratio: 1.3 };
+        for panorama in [Panorama::FisheyeEquidistant { fov: 3.0 }, Panorama::Mirrorball {}, Panorama::Equirectangular { latitude: [-1.5, 1.5], longitude: [-3.0, 3.0] }] {
+            let mut cam = turned_camera([0.0, f32::INFINITY], Vec2::ZERO, None);
+            cam.set_lens(Vec2::ZERO, Some(aperture), Some(panorama)).unwrap();
+            let lens = cam.lens(64, 48);
+            assert!(lens.has_aperture() && !lens.pinhole() && !lens.joinable());
+            let mut rng = crate::rng::Rng::new(5, 2);
+            for pixel in [Vec2::new(32.0, 24.0), Vec2::new(20.3, 30.7), Vec2::new(40.1, 10.2)] {
+                let mut pinhole = cam.clone();
+                pinhole.aperture = None;
+                let centre = pinhole.lens(64, 48).ray(pixel, Vec2::ZERO).unwrap();
+                assert_eq!(centre.origin, cam.position);
+                let focus = centre.origin + centre.dir * 3.0;
+                for _ in 0..50 {
+                    let ray = lens.ray(pixel, rng.next_2d()).unwrap();
+                    let off = ray.origin - cam.position;
+                    assert!(off.length() <= 0.2 * 1.0001 && off.dot(centre.dir).abs() < 1e-5, "{panorama:?} {pixel}: {off}");
+                    let t = (focus - ray.origin).length();
+                    assert!((ray.origin + ray.dir * t - focus).length() < 1e-4 && (ray.dir.length() - 1.0).abs() < 1e-5, "{panorama:?} {pixel}");
+                }
+            }
+        }
     }
 
     /// An orthographic camera's rays all look down −Z, from the near plane

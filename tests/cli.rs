@@ -182,7 +182,8 @@ fn a_request_lens_out_of_range_is_refused() {
         (r#"{"shift": [1e9, 0]}"#, "lens: lens shift [1000000000, 0] must be within ±1000 image sizes"),
         (r#"{"shift": [0.2, -0.1], "aperture": {"radius": 0.05, "focus_distance": 3.8, "blades": 5}}"#, ""),
         (r#"{"panorama": {"type": "FISHEYE_EQUIDISTANT", "fov": 0}}"#, "lens: panorama fov 0 must be in (0, 2π]"),
-        (r#"{"panorama": {"type": "MIRRORBALL"}, "aperture": {"radius": 0.1, "focus_distance": 2}}"#, "lens: depth of field on a panoramic camera is not rendered"),
+        (r#"{"panorama": {"type": "MIRRORBALL"}, "aperture": {"radius": 0.1, "focus_distance": -2}}"#, "lens: focus distance -2 must be in (0, 1e15] m"),
+        (r#"{"panorama": {"type": "EQUIRECTANGULAR", "latitude": [-1, 1], "longitude": [-3, 3]}, "aperture": {"radius": 0.1, "focus_distance": 2}}"#, ""),
         (r#"{"shift": [0.1, 0], "panorama": {"type": "FISHEYE_EQUISOLID", "fov": 3.14, "lens": 10.5, "sensor": [36, 24]}}"#, ""),
     ] {
         std::fs::write(&request, format!(r#"{{"width": 8, "height": 8, "samples": 2, "lens": {lens}}}"#)).unwrap();

@@ -158,20 +158,22 @@ CUBE_FACES = {
 }
 
 
-@pytest.mark.parametrize("kind, settings, shift", [
-    ("EQUIRECTANGULAR", {"latitude_min": -1.2, "latitude_max": 1.4, "longitude_min": -2.5, "longitude_max": 2.9}, (0.0, 0.0)),
-    ("EQUIRECTANGULAR", {}, (0.1, -0.05)),
-    ("EQUIANGULAR_CUBEMAP_FACE", {}, (0.0, 0.0)),
-    ("MIRRORBALL", {}, (0.0, 0.0)),
-    ("FISHEYE_EQUIDISTANT", {"fisheye_fov": 2.8}, (0.0, 0.0)),
-    ("FISHEYE_EQUISOLID", {"fisheye_fov": 3.0, "fisheye_lens": 8.0}, (0.0, 0.0)),
-    ("FISHEYE_EQUISOLID", {"fisheye_fov": 2.5, "fisheye_lens": 10.0, "sensor_fit": "VERTICAL"}, (0.0, 0.0)),
-    ("FISHEYE_LENS_POLYNOMIAL", {}, (0.0, 0.0)),
+@pytest.mark.parametrize("kind, settings, shift, dof", [
+    ("EQUIRECTANGULAR", {"latitude_min": -1.2, "latitude_max": 1.4, "longitude_min": -2.5, "longitude_max": 2.9}, (0.0, 0.0), None),
+    ("EQUIRECTANGULAR", {}, (0.1, -0.05), None),
+    ("EQUIRECTANGULAR", {}, (0.0, 0.0), (0.1, 1.5, 6)),
+    ("EQUIANGULAR_CUBEMAP_FACE", {}, (0.0, 0.0), None),
+    ("MIRRORBALL", {}, (0.0, 0.0), None),
+    ("FISHEYE_EQUIDISTANT", {"fisheye_fov": 2.8}, (0.0, 0.0), None),
+    ("FISHEYE_EQUIDISTANT", {"fisheye_fov": 2.8}, (0.0, 0.0), (0.2, 4.0, 0)),
+    ("FISHEYE_EQUISOLID", {"fisheye_fov": 3.0, "fisheye_lens": 8.0}, (0.0, 0.0), None),
+    ("FISHEYE_EQUISOLID", {"fisheye_fov": 2.5, "fisheye_lens": 10.0, "sensor_fit": "VERTICAL"}, (0.0, 0.0), None),
+    ("FISHEYE_LENS_POLYNOMIAL", {}, (0.0, 0.0), None),
     ("CENTRAL_CYLINDRICAL", {"central_cylindrical_range_u_min": -2.0, "central_cylindrical_range_u_max": 2.5,
                              "central_cylindrical_range_v_min": -1.0, "central_cylindrical_range_v_max": 1.5,
-                             "central_cylindrical_radius": 1.3}, (0.0, 0.0)),
+                             "central_cylindrical_radius": 1.3}, (0.0, 0.0), None),
 ])
-def test_panoramic_cameras_see_what_cycles_sees(empty_scene, tmp_path, kind, settings, shift):
+def test_panoramic_cameras_see_what_cycles_sees(empty_scene, tmp_path, kind, settings, shift, dof):
     """A panoramic camera, turned every way and off the centre of a cube
     whose six faces emit six colours (`CUBE_FACES`), on a 40 × 24 image:
     every pixel's channels are the shares of it that see each colour, in
@@ -180,7 +182,10 @@ def test_panoramic_cameras_see_what_cycles_sees(empty_scene, tmp_path, kind, set
     5 σ of the difference, so that the face's edges, which cross the view
     along curves each mapping draws its own way, must fall within a few
     hundredths of a pixel of Cycles'. Outside a fisheye's circle or the
-    mirror ball both are black (within 2e-3). A mapping flipped left for right, or an
+    mirror ball both are black (within 2e-3). With Depth of Field (an
+    aperture of 25 cm and 6 cm, six blades and a disk, focused nearer and
+    farther than the faces) the edges blur, and must blur as in Cycles,
+    whose aperture sits across each ray, focused along it. A mapping flipped left for right, or an
     equisolid lens taken for an equidistant one, fails it by far."""
     for name, (corners, colour) in CUBE_FACES.items():
         give_principled(plane(empty_scene, name, corners), name, Base_Color=(0, 0, 0, 1), Emission_Color=(*colour, 1),
@@ -190,6 +195,11 @@ def test_panoramic_cameras_see_what_cycles_sees(empty_scene, tmp_path, kind, set
     camera.shift_x, camera.shift_y = shift
     for key, value in settings.items():
         setattr(camera, key, value)
+    if dof:
+        # F-Stop on the 50 mm lens Cycles takes for it, the focus distance
+        # along each ray, the blades.
+        camera.dof.use_dof = True
+        camera.dof.aperture_fstop, camera.dof.focus_distance, camera.dof.aperture_blades = dof
     width, height = 40, 24
     empty_scene.render.resolution_x, empty_scene.render.resolution_y = width, height
     empty_scene.view_settings.view_transform = "Standard"
