@@ -31,11 +31,11 @@ pub struct Surface {
     /// Blender's Coat Tint (white: none).
     pub coat_tint: Vec3,
     /// Blender's Specular Tint (glTF's specularColorFactor): the metal's
-    /// F82 tint.
+    /// F82 tint and the dielectric layer's F0 tint.
     pub specular_tint: Vec3,
     /// The coat's own normal where it differs from the shading normal:
-    /// the interpolated normal before a normal map, as Cycles' coat takes
-    /// it (Coat Normal unlinked). World space from `shading::surface_at`,
+    /// the interpolated normal before the base's normal map (Cycles' Coat
+    /// Normal unlinked), or that normal bent by the coat's own map. World space from `shading::surface_at`,
     /// local to the BSDF's frame by `integrator::bsdf_on`; zero: the
     /// shading normal.
     pub coat_normal: Vec3,
@@ -142,7 +142,8 @@ pub struct Material {
     /// Blender's Coat Tint, from a render request (white without).
     pub coat_tint: Vec3,
     /// KHR_materials_specular specularColorFactor, Blender's Specular Tint
-    /// (white without): the metal's F82 tint.
+    /// (white without): the metal's F82 tint and the dielectric layer's F0
+    /// tint.
     pub specular_tint: Vec3,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,

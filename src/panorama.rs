@@ -60,7 +60,12 @@ impl Panorama {
             true => Ok(()),
             false => Err(format!("panorama fov {fov} must be in (0, 2π]")),
         };
-        let sensor = |s: [f32; 2]| match s.iter().all(|x| *x > 0.0 && *x <= MAX_SETTING) {
+        let positive = |x: f32| x > 0.0 && x <= MAX_SETTING;
+        let size = |name: &str, x: f32, unit: &str| match positive(x) {
+            true => Ok(()),
+            false => Err(format!("panorama {name} {x} must be in (0, {MAX_SETTING:e}]{unit}")),
+        };
+        let sensor = |s: [f32; 2]| match s.into_iter().all(positive) {
             true => Ok(()),
             false => Err(format!("panorama sensor {s:?} must be two sizes in (0, {MAX_SETTING:e}] mm")),
         };
@@ -68,23 +73,9 @@ impl Panorama {
             Panorama::Equirectangular { latitude, longitude } => finite("latitude", &latitude).and(finite("longitude", &longitude)),
             Panorama::EquiangularCubemapFace {} | Panorama::Mirrorball {} => Ok(()),
             Panorama::FisheyeEquidistant { fov: f } => fov(f),
-            Panorama::FisheyeEquisolid { fov: f, lens, sensor: s } => {
-                fov(f)?;
-                sensor(s)?;
-                match lens > 0.0 && lens <= MAX_SETTING {
-                    true => Ok(()),
-                    false => Err(format!("panorama lens {lens} must be in (0, {MAX_SETTING:e}] mm")),
-                }
-            }
+            Panorama::FisheyeEquisolid { fov: f, lens, sensor: s } => fov(f).and(sensor(s)).and(size("lens", lens, " mm")),
             Panorama::FisheyeLensPolynomial { fov: f, k, sensor: s } => fov(f).and(sensor(s)).and(finite("coefficient", &k)),
-            Panorama::CentralCylindrical { u_range, v_range, radius } => {
-                finite("u range", &u_range)?;
-                finite("v range", &v_range)?;
-                match radius > 0.0 && radius <= MAX_SETTING {
-                    true => Ok(()),
-                    false => Err(format!("panorama radius {radius} must be in (0, {MAX_SETTING:e}]")),
-                }
-            }
+            Panorama::CentralCylindrical { u_range, v_range, radius } => finite("u range", &u_range).and(finite("v range", &v_range)).and(size("radius", radius, "")),
         }
     }
 
