@@ -9,14 +9,16 @@ Map node's image (with texture coordinates, Blender's own MikkTSpace
 tangents where a normal map needs them, and the colour attributes materials
 use), alpha, Transmission Weight and IOR (KHR_materials_transmission,
 KHR_materials_ior: glass), Coat Weight and Roughness
-(KHR_materials_clearcoat), cameras and mesh geometry with modifiers applied.
+(KHR_materials_clearcoat), Anisotropic and Anisotropic Rotation
+(KHR_materials_anisotropy; Glint stretches them along Cycles' default
+tangent, circles about the object's Z axis, and warns where the Tangent
+input is linked), cameras and mesh geometry with modifiers applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²); their radius and Soft Falloff, and a sun's
 angle, go in the request. Not carried, or not yet rendered
 by Glint: procedural textures and a Coat IOR other than 1.5 (the user
-is warned), other Principled inputs (sheen, subsurface, anisotropy, thin
-film), and World node setups other than a plain
-Background colour or an equirectangular Environment Texture (with at most a
+is warned), other Principled inputs (sheen, subsurface, thin film), and
+World node setups other than a plain Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
 Through the request: resolution × percentage, the scene camera and what
@@ -228,6 +230,9 @@ def render_request(depsgraph, job, width, height):
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
+    tangents = linked_tangents(depsgraph)
+    if tangents:
+        warnings.append(f"{', '.join(tangents)}: a linked Tangent is not rendered by Glint, which stretches Anisotropic along the default tangent (circles about the object's Z axis)")
     request = {
         "job": job,
         "scene": "scene.glb",
@@ -395,6 +400,20 @@ def coat_settings(depsgraph):
                 iors.append(m.name)
             break
     return tints, sorted(set(iors))
+
+
+def linked_tangents(depsgraph):
+    """Names of materials whose Principled BSDF is anisotropic with its
+    Tangent input linked: Glint renders them along Cycles' default tangent
+    (circles about the object's Z axis), the one an unlinked input gets."""
+    names = []
+    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+        for node in (n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"):
+            anisotropic = node.inputs["Anisotropic"]
+            if (anisotropic.is_linked or anisotropic.default_value > 0.0) and node.inputs["Tangent"].is_linked:
+                names.append(m.name)
+                break
+    return names
 
 
 # Texture nodes that compute their values: glTF carries images only.

@@ -22,10 +22,12 @@
 //! model's full code) for comparison: for the same seed it gives the same
 //! image, bit for bit.
 //!
-//! Textures, vertex colours, normal maps and alpha are decided per
-//! material at the hit (shading.rs): a material without them takes its
+//! Textures, vertex colours, normal maps, anisotropy and alpha are decided
+//! per material at the hit (shading.rs): a material without them takes its
 //! factors in one branch, and a scene with no alpha anywhere traces its
-//! rays without the any-hit test.
+//! rays without the any-hit test. An isotropic BSDF tests one tag for
+//! anisotropy and calls none of its code, which is kept out of line
+//! (bsdf/principled.rs); a scene without it carries no tangent field.
 
 use crate::bsdf::BsdfModel;
 use crate::lights::Lights;
@@ -83,6 +85,8 @@ pub struct Features {
     pub transmission: usize,
     /// Materials with a clear coat (KHR_materials_clearcoat).
     pub coat: usize,
+    /// Anisotropic materials (KHR_materials_anisotropy).
+    pub anisotropic: usize,
 }
 
 impl Features {
@@ -125,6 +129,7 @@ impl Features {
             f.alpha += m.has_alpha() as usize;
             f.transmission += m.is_transmissive() as usize;
             f.coat += m.is_coated() as usize;
+            f.anisotropic += (m.anisotropy > 0.0) as usize;
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
@@ -181,6 +186,9 @@ impl fmt::Display for Features {
         }
         if self.coat > 0 {
             on.push(format!("coat={}", self.coat));
+        }
+        if self.anisotropic > 0 {
+            on.push(format!("anisotropic={}", self.anisotropic));
         }
         if on.is_empty() {
             on.push("nothing".into());

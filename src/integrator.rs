@@ -425,9 +425,26 @@ pub(crate) fn bsdf_on<B: Bsdf>(prepared: &[Option<[B::Prepared; 2]>], material: 
                 let n = frame.to_local(s.coat_normal);
                 s.coat_normal = if n.z < 0.0 { -n } else { n };
             }
+            if s.anisotropy > 0.0 {
+                s.tangent = anisotropy_axis(frame.to_local(s.tangent), s.anisotropy_rotation);
+            }
             B::new(&s, wo)
         }
     }
+}
+
+/// An anisotropic lobe's axis in the BSDF's frame from its tangent there
+/// (`Surface::tangent`): set square to the normal (+z), turned about it
+/// by `rotation` turns (Cycles' Anisotropic Rotation: counter-clockwise
+/// seen from above), unit. Where the tangent has no part across the
+/// normal (the pole of Cycles' radial field, where its own tangent is
+/// undefined), any axis serves: +x.
+#[inline]
+pub(crate) fn anisotropy_axis(local_tangent: Vec3, rotation: f32) -> Vec3 {
+    let t = Vec3::new(local_tangent.x, local_tangent.y, 0.0).normalize_or_zero();
+    let t = if t == Vec3::ZERO { Vec3::X } else { t };
+    let (sin, cos) = (rotation * std::f32::consts::TAU).sin_cos();
+    Vec3::new(t.x * cos - t.y * sin, t.x * sin + t.y * cos, 0.0)
 }
 
 /// Each material's BSDF prepared for its front and back face
@@ -1200,6 +1217,22 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
 
 #[cfg(test)]
 mod tests {
+    use super::anisotropy_axis;
+
+    /// The tangent set square to the normal, turned counter-clockwise seen
+    /// from above (a quarter turn takes +x to +y), and +x at the pole of
+    /// the field, where the tangent is along the normal or zero.
+    #[test]
+    fn anisotropy_axis_is_square_to_the_normal_and_turned() {
+        let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-6;
+        assert!(close(anisotropy_axis(Vec3::new(2.0, 0.0, 5.0), 0.0), Vec3::X));
+        assert!(close(anisotropy_axis(Vec3::new(2.0, 0.0, 5.0), 0.25), Vec3::Y));
+        assert!(close(anisotropy_axis(Vec3::new(0.0, -3.0, 1.0), 0.125), Vec3::new(0.5f32.sqrt(), -(0.5f32.sqrt()), 0.0)));
+        assert_eq!(anisotropy_axis(Vec3::new(0.0, 0.0, 1.0), 0.0), Vec3::X);
+        assert_eq!(anisotropy_axis(Vec3::ZERO, 0.0), Vec3::X);
+        assert!((anisotropy_axis(Vec3::new(1e-30, 3e-31, 1.0), 0.37).length() - 1.0).abs() < 1e-6);
+    }
+
     use super::*;
     use crate::bsdf::{PrincipledBsdf, WithGlass};
     use crate::camera::Camera;

@@ -39,6 +39,16 @@ pub struct Surface {
     /// local to the BSDF's frame by `integrator::bsdf_on`; zero: the
     /// shading normal.
     pub coat_normal: Vec3,
+    /// Blender's Anisotropic (0: isotropic) and Anisotropic Rotation, in
+    /// turns about the normal (`Material::anisotropy`).
+    pub anisotropy: f32,
+    pub anisotropy_rotation: f32,
+    /// The direction the glossy lobes are roughest along (α_x), for an
+    /// anisotropic surface: Cycles' default Tangent, not yet square to the
+    /// normal nor rotated, world space from `shading::surface_at`; unit,
+    /// rotated, in the plane of the BSDF's frame by `integrator::bsdf_on`.
+    /// Zero: none.
+    pub tangent: Vec3,
 }
 
 impl Surface {
@@ -145,6 +155,14 @@ pub struct Material {
     /// (white without): the metal's F82 tint and the dielectric layer's F0
     /// tint.
     pub specular_tint: Vec3,
+    /// KHR_materials_anisotropy's anisotropyStrength and anisotropyRotation
+    /// (in turns), read as Blender's importer reads them: Blender's
+    /// Anisotropic and Anisotropic Rotation, which its exporter writes
+    /// there (the rotation × 2π). Rendered as Cycles' Principled BSDF does
+    /// (bsdf/principled.rs), along Cycles' default tangent
+    /// (`VertexAttributes::anisotropy_tangent`). 0 and 0 without it.
+    pub anisotropy: f32,
+    pub anisotropy_rotation: f32,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,
     /// baseColorFactor's alpha.
@@ -173,6 +191,8 @@ impl Default for Material {
             coat_roughness: 0.0,
             coat_tint: Vec3::ONE,
             specular_tint: Vec3::ONE,
+            anisotropy: 0.0,
+            anisotropy_rotation: 0.0,
             textures: None,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
@@ -203,6 +223,9 @@ impl Material {
             coat_tint: self.coat_tint,
             coat_normal: Vec3::ZERO,
             specular_tint: self.specular_tint,
+            anisotropy: self.anisotropy,
+            anisotropy_rotation: self.anisotropy_rotation,
+            tangent: Vec3::ZERO,
         }
     }
 

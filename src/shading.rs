@@ -37,10 +37,11 @@ fn vertex_color(scene: &Scene, triangle: u32, b: Barycentric) -> Vec4 {
     scene.attributes.color.get(triangle as usize).map_or(Vec4::ONE, |c| b.mix(c))
 }
 
-/// Whether anything at this point differs from the material's factors.
+/// Whether anything at this point differs from the material's factors:
+/// textures, vertex colours, or an anisotropic lobe's tangent.
 #[inline]
 pub fn varies(scene: &Scene, m: &Material) -> bool {
-    m.textures.is_some() || !scene.attributes.color.is_empty()
+    m.textures.is_some() || !scene.attributes.color.is_empty() || m.anisotropy > 0.0
 }
 
 /// The surface a BSDF sees at a point.
@@ -49,6 +50,9 @@ pub fn surface_at(scene: &Scene, m: &Material, triangle: u32, b: Barycentric) ->
     let mut s = m.surface();
     if !varies(scene, m) {
         return s;
+    }
+    if m.anisotropy > 0.0 {
+        s.tangent = scene.attributes.anisotropy_tangent.get(triangle as usize).map_or(Vec3::ZERO, |t| b.mix(t));
     }
     s.base_color *= Vec3::from_vec4(vertex_color(scene, triangle, b));
     if let Some(t) = &m.textures {

@@ -72,27 +72,12 @@ pub fn eval(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
 /// in the stretched (α = 1) configuration, lifted to the hemisphere and
 /// unstretched.
 pub fn sample_visible_normal(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
-    let v = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
-    let len2 = v.x * v.x + v.y * v.y;
-    let t1 = if len2 > 0.0 { Vec3::new(-v.y, v.x, 0.0) / len2.sqrt() } else { Vec3::X };
-    let t2 = v.cross(t1);
-    let r = u.x.sqrt();
-    let phi = 2.0 * PI * u.y;
-    let p1 = r * phi.cos();
-    let s = 0.5 * (1.0 + v.z);
-    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
-    let n = t1 * p1 + t2 * p2 + v * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
-    Vec3::new(alpha * n.x, alpha * n.y, n.z.max(0.0)).normalize()
+    Anisotropic { alpha_x: alpha, alpha_y: alpha }.sample_visible_normal(wo, u)
 }
 
 /// wo reflected about a visible normal; None below the surface.
 pub fn sample(wo: Vec3, alpha: f32, u: Vec2) -> Option<(Vec3, Vec3)> {
-    if wo.z <= 0.0 {
-        return None;
-    }
-    let h = sample_visible_normal(wo, alpha, u);
-    let wi = 2.0 * wo.dot(h) * h - wo;
-    (wi.z > 0.0 && wi.is_finite()).then_some((wi, h))
+    Anisotropic { alpha_x: alpha, alpha_y: alpha }.sample(wo, u)
 }
 
 /// `eval` and `pdf` together, sharing D and root(wo): `eval` and `pdf`
@@ -110,6 +95,88 @@ pub fn eval_pdf(wo: Vec3, wi: Vec3, alpha: f32) -> (f32, f32) {
 
 pub fn pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
     eval_pdf(wo, wi, alpha).1
+}
+
+/// Anisotropic GGX (Blender's Anisotropic): α_x along the local x axis
+/// (the tangent), α_y along y. The same formulas with α²(x² + y²) read
+/// as α_x²x² + α_y²y²:
+///
+///   D(h) = 1 / (π α_x α_y (h_x²/α_x² + h_y²/α_y² + h_z²)²)
+///   Λ(w) = (√(1 + (α_x² w_x² + α_y² w_y²)/w_z²) − 1) / 2
+///
+/// and the visible normals sampled in the configuration stretched by
+/// (α_x, α_y). With α_x = α_y these are the isotropic functions above
+/// (kept apart: an isotropic material computes what it always did).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Anisotropic {
+    pub alpha_x: f32,
+    pub alpha_y: f32,
+}
+
+impl Anisotropic {
+    /// √(z² + α_x² x² + α_y² y²): `smith_root` with its own α per axis.
+    #[inline]
+    fn root(&self, w: Vec3) -> f32 {
+        let (ax, ay) = (self.alpha_x * w.x, self.alpha_y * w.y);
+        (w.z * w.z + ax * ax + ay * ay).sqrt()
+    }
+
+    /// D of the half vector of wo and wi from their unnormalised sum h, as
+    /// `d_of_sum`: α_x α_y / (π b²) with b = (h_x² α_y/α_x + h_y² α_x/α_y +
+    /// h_z² α_x α_y) / |h|², which is the isotropic bracket where the two
+    /// are equal.
+    #[inline]
+    fn d_of_sum(&self, h: Vec3) -> f32 {
+        if !(h.z > 0.0) {
+            return 0.0;
+        }
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
+        let (x2, y2, z2) = (h.x * h.x, h.y * h.y, h.z * h.z);
+        let inv_len2 = 1.0 / (x2 + y2 + z2);
+        let bracket = (x2 * (ay / ax) + y2 * (ax / ay) + z2 * (ax * ay)) * inv_len2;
+        ax * ay / (PI * bracket * bracket)
+    }
+
+    /// `eval_pdf` of this lobe: D·G2 / (4 cosθo cosθi) and D_wo(h) / (4 wo·h).
+    #[inline]
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let half_d = 0.5 * self.d_of_sum(wo + wi);
+        let root_o = self.root(wo);
+        (half_d / (wi.z * root_o + wo.z * self.root(wi)), half_d / (wo.z + root_o))
+    }
+
+    /// A visible normal for wo (Heitz 2018): a point on the disk seen from
+    /// wo in the configuration stretched to α = 1, lifted to the hemisphere
+    /// and unstretched, by α_x and α_y apart (equal for the isotropic
+    /// `sample_visible_normal`).
+    pub fn sample_visible_normal(&self, wo: Vec3, u: Vec2) -> Vec3 {
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
+        let v = Vec3::new(ax * wo.x, ay * wo.y, wo.z).normalize();
+        let len2 = v.x * v.x + v.y * v.y;
+        let t1 = if len2 > 0.0 { Vec3::new(-v.y, v.x, 0.0) / len2.sqrt() } else { Vec3::X };
+        let t2 = v.cross(t1);
+        let r = u.x.sqrt();
+        let phi = 2.0 * PI * u.y;
+        let p1 = r * phi.cos();
+        let s = 0.5 * (1.0 + v.z);
+        let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
+        let n = t1 * p1 + t2 * p2 + v * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
+        Vec3::new(ax * n.x, ay * n.y, n.z.max(0.0)).normalize()
+    }
+
+    /// wo reflected about a visible normal, and that normal; None below
+    /// the surface.
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, Vec3)> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let h = self.sample_visible_normal(wo, u);
+        let wi = 2.0 * wo.dot(h) * h - wo;
+        (wi.z > 0.0 && wi.is_finite()).then_some((wi, h))
+    }
 }
 
 /// wo·h for the half vector h of unit wo and wi: √((1 + wo·wi)/2), one

@@ -363,9 +363,14 @@ fn principled_is_finite_at_grazing_and_back_facing_directions_and_every_roughnes
     let at_cos = |c: f32, phi: f32| Vec3::new((1.0 - c * c).sqrt() * phi.cos(), (1.0 - c * c).sqrt() * phi.sin(), c);
     let cosines = [1.0f32, 0.3, 1e-3, 1e-7, 0.0, -1e-7, -0.5];
     let mut rng = Rng::new(12, 13);
+    // Isotropic, and at full Anisotropic (α_y = 0.32 α, α_x clamped at 1
+    // from roughness 0.56 on) with the axis turned off the frame's.
+    let surfaces = |roughness: f32, metallic: f32| {
+        let m = material(Vec3::new(1.0, 0.5, 0.0), metallic, roughness);
+        [m, Surface { anisotropy: 1.0, tangent: Vec3::new(0.8, -0.6, 0.0), ..m }]
+    };
     for roughness in [0.0f32, 1e-4, 1e-3, 0.01, 0.05, 0.5, 1.0] {
-        for metallic in [0.0f32, 0.5, 1.0] {
-            let m = material(Vec3::new(1.0, 0.5, 0.0), metallic, roughness);
+        for (metallic, m) in [0.0f32, 0.5, 1.0].into_iter().flat_map(|metallic| surfaces(roughness, metallic).map(|m| (metallic, m))) {
             for &co in &cosines {
                 let wo = at_cos(co, 0.3);
                 let bsdf = PrincipledBsdf::new(&m, wo);
@@ -456,6 +461,130 @@ fn the_lobe_in_visibility_form_is_the_textbook_one() {
                 let wi = if rng.next_f32() < 0.1 { microfacet::sample(wo, alpha, rng.next_2d()).map_or(wi, |s| s.0) } else { wi };
                 check(wo, wi, alpha);
             }
+        }
+    }
+}
+
+/// Anisotropic GGX against its textbook form — D(h) = 1/(π α_x α_y
+/// (h_x²/α_x² + h_y²/α_y² + h_z²)²), Λ(w) = (√(1 + (α_x² w_x² + α_y²
+/// w_y²)/w_z²) − 1)/2, f = D G2/(4 cos cos), pdf = D G1(wo)/(4 cosθo) —
+/// and, with α_x = α_y, against the isotropic lobe.
+#[test]
+fn anisotropic_ggx_is_the_textbook_one() {
+    let textbook = |wo: Vec3, wi: Vec3, ax: f32, ay: f32| {
+        let h = (wo + wi).normalize();
+        let b = h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay) + h.z * h.z;
+        let d = 1.0 / (std::f32::consts::PI * ax * ay * b * b);
+        let lambda = |w: Vec3| ((1.0 + (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z)).sqrt() - 1.0) / 2.0;
+        (d / (1.0 + lambda(wo) + lambda(wi)) / (4.0 * wo.z * wi.z), d / (1.0 + lambda(wo)) / (4.0 * wo.z))
+    };
+    let mut rng = Rng::new(9, 3);
+    for (ax, ay) in [(0.3f32, 0.05), (0.05, 0.3), (0.8, 0.2), (1.0, 0.6), (0.2, 0.2)] {
+        let lobe = microfacet::Anisotropic { alpha_x: ax, alpha_y: ay };
+        for _ in 0..2000 {
+            let (wo, wi) = (crate::sampling::cosine_hemisphere(rng.next_2d()), crate::sampling::cosine_hemisphere(rng.next_2d()));
+            if wo.z < 1e-3 || wi.z < 1e-3 {
+                continue;
+            }
+            let (f, pdf) = lobe.eval_pdf(wo, wi);
+            let (f_ref, pdf_ref) = textbook(wo, wi, ax, ay);
+            assert!((f / f_ref - 1.0).abs() < 1e-3 && (pdf / pdf_ref - 1.0).abs() < 1e-3, "α ({ax}, {ay}) wo {wo} wi {wi}: {f}, {pdf} against {f_ref}, {pdf_ref}");
+            if ax == ay {
+                let (fi, pdfi) = microfacet::eval_pdf(wo, wi, ax);
+                assert!((f / fi - 1.0).abs() < 1e-5 && (pdf / pdfi - 1.0).abs() < 1e-5);
+            }
+        }
+        // Below the surface, nothing.
+        assert_eq!(lobe.eval_pdf(dir_at(30.0), Vec3::new(0.0, 0.3, -0.9).normalize()), (0.0, 0.0));
+    }
+}
+
+/// The visible normals of an anisotropic lobe sample its pdf, for views
+/// along, across and between its axes, down to grazing.
+#[test]
+fn anisotropic_sampling_matches_its_pdf() {
+    for (ax, ay) in [(0.47f32, 0.13), (0.13, 0.47), (0.9, 0.5)] {
+        let lobe = microfacet::Anisotropic { alpha_x: ax, alpha_y: ay };
+        for (theta, phi) in [(0.0f32, 0.0f32), (45.0, 0.0), (45.0, 90.0), (60.0, 30.0), (85.0, 135.0)] {
+            let (t, p) = (theta.to_radians(), phi.to_radians());
+            let wo = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+            let r = chi2_test(N, 6, |rng| lobe.sample(wo, u2(rng)).map(|s| s.0), |wi| lobe.eval_pdf(wo, wi).1);
+            assert!(r.p_value > P_MIN, "α ({ax}, {ay}) θo {theta} φo {phi}: p = {} (χ² {} dof {})", r.p_value, r.statistic, r.dof);
+            assert!((r.pdf_integral - r.success_fraction).abs() < 5e-3, "α ({ax}, {ay}) θo {theta} φo {phi}: ∫pdf {} vs {}", r.pdf_integral, r.success_fraction);
+        }
+    }
+}
+
+fn anisotropic(base: Vec3, metallic: f32, roughness: f32, anisotropy: f32, axis: Vec3) -> Surface {
+    Surface { anisotropy, tangent: axis, ..material(base, metallic, roughness) }
+}
+
+/// An anisotropic Principled BSDF (metal, dielectric, and between) samples
+/// its own pdf, its axis along x or turned.
+#[test]
+fn anisotropic_principled_sampling_matches_pdf() {
+    let turned = Vec3::new(0.6, 0.8, 0.0);
+    for (base, metallic) in [(Vec3::new(1.0, 0.7, 0.3), 1.0f32), (Vec3::new(0.8, 0.3, 0.2), 0.0), (Vec3::splat(0.5), 0.5)] {
+        for (roughness, anisotropy, axis) in [(0.5f32, 0.8f32, Vec3::X), (0.7, 1.0, turned), (0.4, 0.5, turned)] {
+            for theta in [10.0f32, 60.0, 85.0] {
+                let wo = Vec3::new(0.3, 0.7, 0.0).normalize() * theta.to_radians().sin() + Vec3::Z * theta.to_radians().cos();
+                let bsdf = PrincipledBsdf::new(&anisotropic(base, metallic, roughness, anisotropy, axis), wo);
+                let r = bsdf_chi2(&bsdf, wo, N, 7);
+                assert!(r.p_value > P_MIN, "metallic {metallic} roughness {roughness} anisotropy {anisotropy} θo {theta}: p = {}", r.p_value);
+            }
+        }
+    }
+}
+
+/// Anisotropic 0 is the isotropic BSDF, bit for bit, whatever the tangent;
+/// at Anisotropic 1 the highlight of a head-on view stretches along the
+/// tangent: α_x/α_y = 1/(1 − 0.9) = 10, and reflected directions spread
+/// 8.4× as far along it as across (slopes of the wide axis are not small
+/// at roughness 0.3), and the axis turned a quarter turn turns the spread
+/// with it.
+#[test]
+fn anisotropy_stretches_the_highlight_along_the_tangent() {
+    let mut rng = Rng::new(5, 8);
+    let gold = Vec3::new(1.0, 0.78, 0.34);
+    for _ in 0..200 {
+        let (wo, wi) = (crate::sampling::cosine_hemisphere(rng.next_2d()), crate::sampling::cosine_hemisphere(rng.next_2d()));
+        let iso = PrincipledBsdf::new(&material(gold, 1.0, 0.4), wo);
+        let zero = PrincipledBsdf::new(&anisotropic(gold, 1.0, 0.4, 0.0, Vec3::Y), wo);
+        assert_eq!(iso.evaluate(wo, wi), zero.evaluate(wo, wi));
+    }
+    let spread = |axis: Vec3| {
+        let wo = Vec3::Z;
+        let bsdf = PrincipledBsdf::new(&anisotropic(gold, 1.0, 0.3, 1.0, axis), wo);
+        let mut rng = Rng::new(6, 1);
+        let (mut x, mut y) = (0.0f64, 0.0f64);
+        for _ in 0..100_000 {
+            if let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) {
+                (x, y) = (x + (s.wi.x as f64).abs(), y + (s.wi.y as f64).abs());
+            }
+        }
+        x / y
+    };
+    let along_x = spread(Vec3::X);
+    assert!((7.5..10.0).contains(&along_x), "spread along x over across: {along_x}");
+    let along_y = spread(Vec3::Y);
+    assert!((1.0 / along_y - along_x).abs() < 0.2, "turned a quarter: {along_y}");
+}
+
+/// A white anisotropic metal never returns more than the light it gets.
+/// The multiple-scattering compensation is the isotropic lobe's, read at
+/// (α_x α_y)^¼ as Cycles reads it, which does not make up what the wider
+/// axis loses: at Anisotropic 0.1 it returns all the light within 1.5%
+/// (as the isotropic furnace test), at 1 as little as 0.70 head-on
+/// (roughness 0.5), as Cycles' Principled BSDF does.
+#[test]
+fn an_anisotropic_white_metal_never_gains_energy() {
+    for roughness in [0.2f32, 0.5, 0.9] {
+        for theta in [0.0f32, 45.0, 80.0] {
+            let wo = dir_at(theta);
+            let albedo = |anisotropy: f32| albedo_of(&PrincipledBsdf::new(&anisotropic(Vec3::ONE, 1.0, roughness, anisotropy, Vec3::new(0.6, 0.8, 0.0)), wo), wo, 100_000, 23).x;
+            let (slight, full) = (albedo(0.1), albedo(1.0));
+            assert!((slight - 1.0).abs() < 0.015, "roughness {roughness} θo {theta}: albedo {slight} at anisotropy 0.1");
+            assert!(full < 1.005 && full > 0.6, "roughness {roughness} θo {theta}: albedo {full} at anisotropy 1");
         }
     }
 }

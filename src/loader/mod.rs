@@ -41,6 +41,7 @@ const RENDERED: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_ior",
     "KHR_materials_clearcoat",
+    "KHR_materials_anisotropy",
     "KHR_lights_punctual",
 ];
 
@@ -54,6 +55,7 @@ const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
+    "KHR_materials_anisotropy",
     "KHR_lights_punctual",
 ];
 
@@ -481,6 +483,7 @@ impl<'a> Builder<'a> {
         let normal_matrix = linear.inverse().transpose();
         // A mirroring transform turns counter-clockwise into clockwise.
         let flip = linear.determinant() < 0.0;
+        let radial = self.radial_tangents(mesh_index)?;
         for (pi, prim) in mesh.primitives.iter().enumerate() {
             let what = |e: String| format!("mesh {mesh_index} primitive {pi}: {e}");
             match prim.mode {
@@ -574,9 +577,38 @@ impl<'a> Builder<'a> {
                     })
                 });
                 push_column(&mut a.tangent, before, tangent, [Vec4::ZERO; 3]);
+                let anisotropic = radial.as_ref().filter(|_| self.materials[material as usize].anisotropy > 0.0);
+                let field = anisotropic.map(|r| order.map(|i| r.at(Vec3::from(positions.get3(i)), &normal_matrix)));
+                push_column(&mut a.anisotropy_tangent, before, field, [Vec3::ZERO; 3]);
             }
         }
         Ok(())
+    }
+
+    /// Cycles' default tangent field over a mesh (`RadialTangents`), where
+    /// one of its primitives has an anisotropic material; None otherwise.
+    fn radial_tangents(&mut self, mesh_index: usize) -> Result<Option<RadialTangents>, String> {
+        let mesh = &self.root.meshes[mesh_index];
+        let mut anisotropic = false;
+        for prim in &mesh.primitives {
+            let material = self.material_id(prim.material.map(|m| m.value()))?;
+            anisotropic |= self.materials[material as usize].anisotropy > 0.0;
+        }
+        if !anisotropic {
+            return Ok(None);
+        }
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for prim in &mesh.primitives {
+            let Some(index) = prim.attributes.get(&Checked::Valid(Semantic::Positions)) else { continue };
+            let Ok(positions) = read_floats(&mut self.buffers, index.value(), &[Type::Vec3]) else { continue };
+            for i in 0..positions.count() {
+                let p = Vec3::from(positions.get3(i));
+                if p.is_finite() {
+                    (lo, hi) = (lo.min(p), hi.max(p));
+                }
+            }
+        }
+        Ok((lo.cmple(hi).all()).then(|| RadialTangents::of_bounds(lo, hi)))
     }
 
     fn pick_camera(&self, wanted: Option<&str>) -> Result<Camera, String> {
@@ -649,6 +681,17 @@ impl<'a> Builder<'a> {
         if self.images.unsupported_sets > 0 {
             w.push(format!("{} texture reference(s) use a texture coordinate set above 1: TEXCOORD_1 is read instead", self.images.unsupported_sets));
         }
+        let textured_anisotropy: Vec<String> = self
+            .root
+            .materials
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| anisotropy_extension(m).is_some_and(|e| e.get("anisotropyTexture").is_some()))
+            .map(|(i, m)| m.name.clone().unwrap_or_else(|| format!("material {i}")))
+            .collect();
+        if !textured_anisotropy.is_empty() {
+            w.push(format!("{}: the anisotropy texture is not read yet, only its strength and rotation factors", textured_anisotropy.join(", ")));
+        }
         let unsupported: Vec<&str> = self.root.extensions_used.iter().map(String::as_str).filter(|e| !RENDERED.contains(e)).collect();
         if !unsupported.is_empty() {
             w.push(format!("not rendered yet, ignored: {}", unsupported.join(", ")));
@@ -668,6 +711,42 @@ fn push_column<T: Copy>(column: &mut Vec<T>, before: usize, value: Option<T>, de
         }
         None if !column.is_empty() => column.push(default),
         None => {}
+    }
+}
+
+/// The tangent Cycles gives a Principled BSDF whose Tangent input is not
+/// linked (its Geometry node's Tangent): from the object's generated
+/// coordinates g, which map its texture space — by default the mesh's
+/// bounds, centre L and half-size S — to [0, 1]³, the vector
+/// (−(g_y − ½), g_x − ½, 0) turned into world space as a normal is (by
+/// the inverse transpose of the object's matrix), then set square to the
+/// normal: circles about the object's Z axis. In glTF's Y-up local axes
+/// (Blender's x, y, z are glTF's x, −z, y) that vector is
+/// ((z − L_z)/(2 S_z), 0, −(x − L_x)/(2 S_x)). Being affine in the
+/// position, its value at a hit is its corners' mixed by barycentrics.
+#[derive(Clone, Copy, Debug)]
+struct RadialTangents {
+    centre: Vec3,
+    half_size: Vec3,
+}
+
+impl RadialTangents {
+    /// Blender's texture space of a mesh with these bounds
+    /// (BKE_mesh_texspace_calc): an empty extent counts as 1, a tiny one
+    /// as 1e-5.
+    fn of_bounds(lo: Vec3, hi: Vec3) -> Self {
+        let half = (hi - lo) * 0.5;
+        let half_size = Vec3::from(half.to_array().map(|h| if h == 0.0 { 1.0 } else { h.max(1e-5) }));
+        RadialTangents { centre: (lo + hi) * 0.5, half_size }
+    }
+
+    /// The world-space (unnormalised) field at local position `p`, for an
+    /// object whose normals turn by `normal_matrix`; zero where that is
+    /// not finite.
+    fn at(&self, p: Vec3, normal_matrix: &Mat3) -> Vec3 {
+        let d = (p - self.centre) / (2.0 * self.half_size);
+        let v = *normal_matrix * Vec3::new(d.z, 0.0, -d.x);
+        if v.is_finite() { v } else { Vec3::ZERO }
     }
 }
 
@@ -736,6 +815,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
     // KHR_materials_ior allows 1 and up; anything else is its default.
     let ior = extensions.and_then(|e| e.ior.as_ref()).map(|i| i.ior.0).filter(|i| i.is_finite() && *i >= 1.0).unwrap_or(1.5);
     let (coat, coat_roughness) = clearcoat(clearcoat_extension(m));
+    let (anisotropy, anisotropy_rotation) = anisotropy(m);
     let alpha_mode = match m.alpha_mode {
         Checked::Valid(gltf::json::material::AlphaMode::Mask) => AlphaMode::Mask(m.alpha_cutoff.map_or(0.5, |c| finite_or(c.0, 0.5))),
         Checked::Valid(gltf::json::material::AlphaMode::Blend) => AlphaMode::Blend,
@@ -762,6 +842,8 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         coat_roughness,
         coat_tint: Vec3::ONE,
         specular_tint,
+        anisotropy,
+        anisotropy_rotation,
     }
 }
 
@@ -783,6 +865,20 @@ fn clearcoat_field<T: serde::de::DeserializeOwned>(m: &gltf::json::Material, key
 fn clearcoat(extension: Option<&serde_json::Value>) -> (f32, f32) {
     let factor = |name: &str| extension.and_then(|e| e.get(name)).and_then(serde_json::Value::as_f64).map_or(0.0, |v| finite_or(v as f32, 0.0).clamp(0.0, 1.0));
     (factor("clearcoatFactor"), factor("clearcoatRoughnessFactor"))
+}
+
+/// A material's KHR_materials_anisotropy, which gltf-json leaves as JSON.
+fn anisotropy_extension(m: &gltf::json::Material) -> Option<&serde_json::Value> {
+    m.extensions.as_ref().and_then(|e| e.others.get("KHR_materials_anisotropy"))
+}
+
+/// KHR_materials_anisotropy's strength, clamped to [0, 1], and its
+/// rotation in turns (radians / 2π, as Blender's importer divides it), each
+/// 0 where absent or not a finite number.
+fn anisotropy(m: &gltf::json::Material) -> (f32, f32) {
+    let extension = anisotropy_extension(m);
+    let number = |name: &str| extension.and_then(|e| e.get(name)).and_then(serde_json::Value::as_f64).map_or(0.0, |v| finite_or(v as f32, 0.0));
+    (number("anisotropyStrength").clamp(0.0, 1.0), number("anisotropyRotation") / std::f32::consts::TAU)
 }
 
 #[cfg(test)]

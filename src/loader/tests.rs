@@ -198,6 +198,49 @@ fn clearcoat_factors() {
     assert!(!load(&d).unwrap().materials[0].is_coated());
 }
 
+/// KHR_materials_anisotropy as Blender's importer reads it: the strength
+/// is Anisotropic (clamped), the rotation in radians Anisotropic Rotation
+/// × 2π; and the triangles of an anisotropic material carry Cycles'
+/// default tangent field: about the mesh's up axis (glTF +Y), from its
+/// bounds' centre (0.5, 0.5, 0) and half-size (0.5, 0.5, and 1 for the
+/// flat z), turned as normals are. The quad at x = 1 has (z − 0)/2 = 0
+/// and −(x − 0.5)/(2·0.5) = −0.5: (0, 0, −0.5) in local axes, and under
+/// a node scaled (2, 1, 4) the inverse transpose makes it (0, 0, −1/8).
+#[test]
+fn anisotropy_and_its_tangent_field() {
+    let mut d = base_doc();
+    let s = load(&d).unwrap();
+    assert_eq!((s.materials[0].anisotropy, s.materials[0].anisotropy_rotation), (0.0, 0.0));
+    assert!(s.attributes.anisotropy_tangent.is_empty(), "an isotropic scene pays nothing");
+    d["extensionsUsed"] = json!(["KHR_materials_anisotropy"]);
+    d["materials"][0]["extensions"] = json!({"KHR_materials_anisotropy": {"anisotropyStrength": 0.8, "anisotropyRotation": std::f32::consts::FRAC_PI_2}});
+    d["nodes"][1]["scale"] = json!([2.0, 1.0, 4.0]);
+    let s = load(&d).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let m = &s.materials[0];
+    assert_eq!(m.anisotropy, 0.8);
+    assert!((m.anisotropy_rotation - 0.25).abs() < 1e-7, "{}", m.anisotropy_rotation);
+    assert_eq!(s.attributes.anisotropy_tangent.len(), s.triangles.len());
+    for (t, field) in s.triangles.iter().zip(&s.attributes.anisotropy_tangent) {
+        for (p, v) in t.p().iter().zip(field) {
+            // World x = 2 × local x.
+            let expected = Vec3::new(0.0, 0.0, -(p.x / 2.0 - 0.5) / 4.0);
+            assert!((*v - expected).length() < 1e-6, "at {p}: {v} against {expected}");
+        }
+    }
+    d["materials"][0]["extensions"] = json!({"KHR_materials_anisotropy": {"anisotropyStrength": 3.0, "anisotropyRotation": "turn"}});
+    let s = load(&d).unwrap();
+    assert_eq!((s.materials[0].anisotropy, s.materials[0].anisotropy_rotation), (1.0, 0.0));
+    d["materials"][0]["extensions"] = json!({"KHR_materials_anisotropy": {"anisotropyStrength": -1.0}});
+    assert!(load(&d).unwrap().attributes.anisotropy_tangent.is_empty());
+    // A texture is named in a warning, its factors rendered.
+    d["materials"][0]["name"] = json!("Brushed");
+    d["materials"][0]["extensions"] = json!({"KHR_materials_anisotropy": {"anisotropyStrength": 0.5, "anisotropyTexture": {"index": 0}}});
+    let s = load(&d).unwrap();
+    assert_eq!(s.materials[0].anisotropy, 0.5);
+    assert_eq!(s.warnings, ["Brushed: the anisotropy texture is not read yet, only its strength and rotation factors"]);
+}
+
 /// KHR_materials_specular's specularColorFactor is Blender's Specular
 /// Tint: read and clamped, for metals and the dielectric layer alike.
 #[test]

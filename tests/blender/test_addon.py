@@ -130,6 +130,24 @@ def test_the_request_carries_area_lights_and_the_world(empty_scene):
     assert -m[:3, 2] == pytest.approx([0, -1, 0])
 
 
+def test_a_linked_tangent_is_named(empty_scene):
+    """Anisotropic renders along Cycles' default tangent; a Tangent input
+    linked to anything else is named in a warning."""
+    build_scene(empty_scene)
+    red = bpy.data.materials["Red"]
+    principled = red.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Anisotropic"].default_value = 0.5
+    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert not any("Tangent" in w for w in warnings), warnings
+    tangent = red.node_tree.nodes.new("ShaderNodeTangent")
+    red.node_tree.links.new(tangent.outputs["Tangent"], principled.inputs["Tangent"])
+    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert any(w.startswith("Red: a linked Tangent is not rendered by Glint") for w in warnings), warnings
+    principled.inputs["Anisotropic"].default_value = 0.0
+    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert not any("Tangent" in w for w in warnings), warnings
+
+
 def test_the_light_paths_setting_goes_in_the_request(empty_scene):
     """Auto leaves the choice to Glint (no field: the renderer decides from
     the scene); On and Off say so, and `glint render` honours the field
