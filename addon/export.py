@@ -21,7 +21,9 @@ is warned), other Principled inputs (sheen, subsurface, thin film), and
 World node setups other than a plain Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
-Through the request: resolution × percentage, the scene camera and what
+Through the request: resolution × percentage, the objects hidden from the
+camera (Object › Visibility › Ray Visibility › Camera; other rays'
+visibility is warned of, not rendered), the scene camera and what
 glTF cannot say of it (Shift X and Y, Depth of Field, a panoramic camera's
 type and settings), Film › Transparent (and
 Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, samples, bounces,
@@ -173,6 +175,28 @@ def area_lights(depsgraph):
     return records
 
 
+def hidden_from_camera(depsgraph):
+    """Names of the objects (the exporter's node names) with Object ›
+    Visibility › Ray Visibility › Camera off: camera rays pass them, every
+    other ray sees them."""
+    return sorted({i.object.name for i in depsgraph.object_instances if i.object.type not in {"LIGHT", "CAMERA", "EMPTY"} and not i.object.visible_camera})
+
+
+def ray_visibility_left_out(depsgraph):
+    """One warning per object other than a light that is hidden from
+    shadow, diffuse, glossy, transmission or volume rays, which Glint does
+    not render: it sees the object with every such ray."""
+    warnings = {}
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if obj.type == "LIGHT":
+            continue
+        hidden = [name for name, key in (("shadow", "visible_shadow"), ("diffuse", "visible_diffuse"), ("glossy", "visible_glossy"), ("transmission", "visible_transmission"), ("volume scatter", "visible_volume_scatter")) if not getattr(obj, key, True)]
+        if hidden:
+            warnings[obj.name] = f"{obj.name}: hidden from {', '.join(hidden)} rays, which Glint does not render (it sees the object with them)"
+    return [warnings[name] for name in sorted(warnings)]
+
+
 def light_settings_left_out(depsgraph):
     """One warning per light with settings Glint does not render, naming
     them: Cast Shadow off, or rays it is hidden from (Object › Visibility ›
@@ -227,6 +251,7 @@ def render_request(depsgraph, job, width, height):
     if procedural:
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
     warnings.extend(light_settings_left_out(depsgraph))
+    warnings.extend(ray_visibility_left_out(depsgraph))
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
@@ -252,6 +277,7 @@ def render_request(depsgraph, job, width, height):
         "default_surface": [0.8, 0.8, 0.8],
         "area_lights": area_lights(depsgraph),
         "light_sizes": light_sizes(depsgraph),
+        "hidden_from_camera": hidden_from_camera(depsgraph),
     }
     if environment:
         request["environment"] = environment

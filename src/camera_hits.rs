@@ -132,17 +132,21 @@ impl<'a> CameraHits<'a> {
     ///
     /// `samples` per pixel are to be found with it: binning costs about
     /// as much per triangle as the BVH saves per ray, so it waits for
-    /// twice as many rays as triangles.
-    pub fn new(accel: &Accel, triangles: &'a [Triangle], lens: &Lens, width: u32, height: u32, tile: u32, samples: u32) -> Option<Self> {
+    /// twice as many rays as triangles. `hidden[m]` (where it has an entry)
+    /// says material m is hidden from the camera: its triangles are not
+    /// binned, and camera rays pass them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(accel: &Accel, triangles: &'a [Triangle], hidden: &[bool], lens: &Lens, width: u32, height: u32, tile: u32, samples: u32) -> Option<Self> {
         let rays = width as f64 * height as f64 * samples as f64;
         if accel.triangle_count() as f64 * 2.0 > rays {
             return None;
         }
-        Self::within(accel, triangles, lens, width, height, tile, MAX_TESTS_PER_PIXEL)
+        Self::within(accel, triangles, hidden, lens, width, height, tile, MAX_TESTS_PER_PIXEL)
     }
 
     /// Binned unless that makes more than `max_tests` tests per pixel.
-    fn within(accel: &Accel, triangles: &'a [Triangle], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64) -> Option<Self> {
+    #[allow(clippy::too_many_arguments)]
+    fn within(accel: &Accel, triangles: &'a [Triangle], hidden: &[bool], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64) -> Option<Self> {
         // An orthographic camera's rays share a direction, not an origin,
         // and an aperture's rays leave from all over it.
         if width > u16::MAX as u32 || height > u16::MAX as u32 || !lens.pinhole() {
@@ -156,7 +160,11 @@ impl<'a> CameraHits<'a> {
         let bin = |leaves: Range<usize>, room: usize| {
             let (mut binned, mut tests) = (Vec::with_capacity(4 * room), 0.0);
             for (slot, triangle) in accel.slots(leaves) {
-                if let Some(rect) = image_rect(lens, triangles[triangle as usize].p().map(|p| p - origin), width, height) {
+                let t = &triangles[triangle as usize];
+                if hidden.get(t.material as usize).copied().unwrap_or(false) {
+                    continue;
+                }
+                if let Some(rect) = image_rect(lens, t.p().map(|p| p - origin), width, height) {
                     tests += (rect[2] - rect[0] + 1) as f64 * (rect[3] - rect[1] + 1) as f64;
                     if tests > budget {
                         return None;
@@ -414,7 +422,7 @@ mod tests {
     fn agreement(triangles: &[Triangle], camera: &Camera, width: u32, height: u32, samples: u32) -> (usize, usize, usize) {
         let (accel, _) = Accel::build(triangles);
         let lens = camera.lens(width, height);
-        let hits = CameraHits::within(&accel, triangles, &lens, width, height, 16, f64::INFINITY).expect("no budget");
+        let hits = CameraHits::within(&accel, triangles, &[], &lens, width, height, 16, f64::INFINITY).expect("no budget");
         let mut rays = TileRays::new(16);
         let (mut count, mut differ, mut settled) = (0, 0, 0);
         let mut rng = Rng::new(7, 3);
@@ -494,7 +502,7 @@ mod tests {
         let (accel, _) = Accel::build(&triangles);
         let (w, h) = (64, 64);
         let lens = camera.lens(w, h);
-        let hits = CameraHits::within(&accel, &triangles, &lens, w, h, 16, f64::INFINITY).unwrap();
+        let hits = CameraHits::within(&accel, &triangles, &[], &lens, w, h, 16, f64::INFINITY).unwrap();
         let mut rays = TileRays::new(16);
         // Inside the outline of the sphere's inscribed polyhedron.
         let cos_inside = (1.0 - (0.99 * radius / 4.0f32).powi(2)).sqrt();
@@ -535,7 +543,7 @@ mod tests {
         let camera = camera(Vec3::ZERO, Vec3::NEG_Z);
         let (accel, _) = Accel::build(&triangles);
         let lens = camera.lens(32, 32);
-        let hits = CameraHits::within(&accel, &triangles, &lens, 32, 32, 16, f64::INFINITY).unwrap();
+        let hits = CameraHits::within(&accel, &triangles, &[], &lens, 32, 32, 16, f64::INFINITY).unwrap();
         let mut rays = TileRays::new(16);
         let mut on_an_edge = 0;
         for (x0, y0) in [(0, 0), (16, 0), (0, 16), (16, 16)] {
@@ -564,14 +572,14 @@ mod tests {
         // Large enough for the budget: ~3 tests a pixel.
         let (w, h) = (128, 96);
         let lens = camera.lens(w, h);
-        let hits = CameraHits::new(&accel, &triangles, &lens, w, h, 16, 1).unwrap();
+        let hits = CameraHits::new(&accel, &triangles, &[], &lens, w, h, 16, 1).unwrap();
         assert!(hits.tests_per_pixel() < MAX_TESTS_PER_PIXEL as f32, "{}", hits.tests_per_pixel());
         // The same sphere's triangles at a few pixels each, many a pixel.
         let small = camera.lens(12, 8);
-        assert!(CameraHits::new(&accel, &triangles, &small, 12, 8, 16, 1 + 2 * n / 96).is_none());
+        assert!(CameraHits::new(&accel, &triangles, &[], &small, 12, 8, 16, 1 + 2 * n / 96).is_none());
         // Fewer rays than twice the triangles: one sample of a 24×16 image.
         let tiny = camera.lens(24, 16);
         assert!(n > 24 * 16 / 2);
-        assert!(CameraHits::new(&accel, &triangles, &tiny, 24, 16, 16, 1).is_none());
+        assert!(CameraHits::new(&accel, &triangles, &[], &tiny, 24, 16, 16, 1).is_none());
     }
 }

@@ -25,7 +25,8 @@
 //! Textures, vertex colours, normal maps, anisotropy and alpha are decided
 //! per material at the hit (shading.rs): a material without them takes its
 //! factors in one branch, and a scene with no alpha anywhere traces its
-//! rays without the any-hit test. An isotropic BSDF tests one tag for
+//! rays without the any-hit test, as one with no object hidden from the
+//! camera traces camera rays. An isotropic BSDF tests one tag for
 //! anisotropy and calls none of its code, which is kept out of line
 //! (bsdf/principled.rs); a scene without it carries no tangent field.
 
@@ -87,6 +88,9 @@ pub struct Features {
     pub coat: usize,
     /// Anisotropic materials (KHR_materials_anisotropy).
     pub anisotropic: usize,
+    /// Materials on objects hidden from the camera: camera rays test
+    /// them as they pass (`Material::hidden_from_camera`).
+    pub hidden_from_camera: usize,
 }
 
 impl Features {
@@ -130,6 +134,7 @@ impl Features {
             f.transmission += m.is_transmissive() as usize;
             f.coat += m.is_coated() as usize;
             f.anisotropic += (m.anisotropy > 0.0) as usize;
+            f.hidden_from_camera += m.hidden_from_camera as usize;
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
@@ -189,6 +194,9 @@ impl fmt::Display for Features {
         }
         if self.anisotropic > 0 {
             on.push(format!("anisotropic={}", self.anisotropic));
+        }
+        if self.hidden_from_camera > 0 {
+            on.push(format!("hidden from camera={}", self.hidden_from_camera));
         }
         if on.is_empty() {
             on.push("nothing".into());

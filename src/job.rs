@@ -116,11 +116,13 @@ pub struct SceneExtras<'a> {
     pub light_sizes: &'a [LightSize],
     /// The camera's shift and depth of field.
     pub lens: Option<&'a LensRequest>,
+    /// Nodes whose meshes camera rays pass.
+    pub hidden_from_camera: &'a [String],
 }
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref() }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera }
     }
 }
 
@@ -176,7 +178,7 @@ fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
 /// Load a scene (None: the embedded default) and apply the options and the
 /// request's extras. Errors are one line naming the file.
 pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExtras) -> Result<Job, String> {
-    let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone() };
+    let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone(), hidden_from_camera: extras.hidden_from_camera.to_vec() };
     let (mut scene, name) = match scene_file {
         Some(path) => (loader::load_file(path, &load).map_err(|e| e.to_string())?, path.display().to_string()),
         None => (

@@ -56,7 +56,8 @@ impl LightTracing<'_> {
     /// unblocked.
     pub fn splat<B: Bsdf>(&self, ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], v: &LightVertex, rng: &mut Rng, rays: &mut u64) -> Option<Splat> {
         let y = &v.hit;
-        if v.depth < 2 || !connects_from(&y.surface) {
+        // The camera does not see a surface hidden from it.
+        if v.depth < 2 || !connects_from(&y.surface) || (ctx.features.hidden_from_camera > 0 && ctx.scene.materials[y.material as usize].hidden_from_camera) {
             return None;
         }
         // A point of the aperture to see y from, where the camera has one.
@@ -92,7 +93,7 @@ impl LightTracing<'_> {
         let length = to_camera.length();
         // Up to Clip Start: camera rays see nothing nearer.
         let clear = length - seen.skipped;
-        if !(clear > 0.0) || ctx.occluded(origin, to_camera / length, clear, u32::MAX, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
+        if !(clear > 0.0) || ctx.occluded_toward_camera(origin, to_camera / length, clear, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
             return None;
         }
         Some(Splat { pixel: seen.pixel, value })

@@ -163,6 +163,12 @@ pub struct Material {
     /// (`VertexAttributes::anisotropy_tangent`). 0 and 0 without it.
     pub anisotropy: f32,
     pub anisotropy_rotation: f32,
+    /// On an object hidden from the camera (Blender's Object › Visibility ›
+    /// Ray Visibility › Camera off, from a render request): camera rays
+    /// pass it and light tracing does not splat it; every other ray sees
+    /// it. The loader gives such an object's triangles a copy of their
+    /// material with this set.
+    pub hidden_from_camera: bool,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,
     /// baseColorFactor's alpha.
@@ -193,6 +199,7 @@ impl Default for Material {
             specular_tint: Vec3::ONE,
             anisotropy: 0.0,
             anisotropy_rotation: 0.0,
+            hidden_from_camera: false,
             textures: None,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,

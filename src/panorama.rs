@@ -309,8 +309,8 @@ mod tests {
     /// The request's spelling: Blender's own enum names.
     #[test]
     fn reads_blender_panorama_types() {
-        let p: Panorama = serde_json::from_str(r#"{"type": "FISHEYE_EQUISOLID", "fov": 3.14, "lens": 10.5, "sensor": [36, 24]}"#).unwrap();
-        assert_eq!(p, Panorama::FisheyeEquisolid { fov: 3.14, lens: 10.5, sensor: [36.0, 24.0] });
+        let p: Panorama = serde_json::from_str(r#"{"type": "FISHEYE_EQUISOLID", "fov": 3.0, "lens": 10.5, "sensor": [36, 24]}"#).unwrap();
+        assert_eq!(p, Panorama::FisheyeEquisolid { fov: 3.0, lens: 10.5, sensor: [36.0, 24.0] });
         let p: Panorama = serde_json::from_str(r#"{"type": "MIRRORBALL"}"#).unwrap();
         assert!(p.is_mirrorball());
         assert!(serde_json::from_str::<Panorama>(r#"{"type": "MIRRORBALL", "fov": 1}"#).is_err());

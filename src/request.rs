@@ -13,6 +13,7 @@
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "coat_tints": [ { "material": "Car paint", "tint": [0.6, 0.1, 0.1] } ],
+//!   "hidden_from_camera": [ "Bounce card" ],
 //!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
 //!     { "name": "Sun", "angle": 0.00918 } ],
 //!   "lens": { "shift": [0.1, 0], "aperture": { "radius": 0.0125,
@@ -84,6 +85,9 @@ pub struct RenderRequest {
     pub environment: Option<EnvironmentRequest>,
     /// Sizes of the glTF file's point, spot and sun lights, by name.
     pub light_sizes: Vec<LightSize>,
+    /// Nodes (Blender objects) hidden from the camera: camera rays pass
+    /// their meshes, which every other ray sees.
+    pub hidden_from_camera: Vec<String>,
     /// What Blender's camera has and glTF cannot carry.
     pub lens: Option<LensRequest>,
     /// Blender's Film › Transparent: the camera does not see the World and

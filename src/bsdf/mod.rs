@@ -366,10 +366,12 @@ macro_rules! impl_bsdf {
                 <$t>::pdf(self, wo, wi)
             }
             $(
+                #[inline]
                 fn $evaluate(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
                     <$t>::$evaluate(self, wo, wi)
                 }
             )?
+            #[inline]
             fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
                 <$t>::sample(self, wo, u_lobe, u)
             }

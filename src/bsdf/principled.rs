@@ -389,6 +389,7 @@ impl PrincipledBsdf {
         (diffuse + self.glossy_fresnel(microfacet::cos_half(wo, wi)) * lobe, p * lobe_pdf + diffuse_pdf)
     }
 
+    #[inline]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;

@@ -76,6 +76,8 @@ pub struct LoadOptions {
     /// A camera by node or camera name, or `AUTO_CAMERA`; default: the
     /// first perspective camera met walking the scene graph depth first.
     pub camera: Option<String>,
+    /// Nodes whose meshes camera rays pass (`Material::hidden_from_camera`).
+    pub hidden_from_camera: Vec<String>,
 }
 
 /// What `inspect_file` found when it read everything in a file.
@@ -186,6 +188,7 @@ pub fn load_bytes(bytes: &[u8], base_dir: Option<&Path>, name: &str, options: &L
 fn load_parts(json: &[u8], bin: Option<BinChunk>, base_dir: Option<&Path>, options: &LoadOptions) -> Result<Scene, String> {
     let root = parse_root(json)?;
     let mut builder = Builder::new(&root, bin, base_dir);
+    builder.hidden_nodes = options.hidden_from_camera.iter().cloned().collect();
     builder.walk_scene(options.scene_index)?;
     let camera = match options.camera.as_deref() {
         Some(AUTO_CAMERA) => {
@@ -242,6 +245,9 @@ struct Builder<'a> {
     images: ImageCache,
     /// glTF material index (None: the default material) → ours.
     material_ids: HashMap<Option<usize>, u32>,
+    /// Nodes hidden from the camera, and ours → its hidden copy.
+    hidden_nodes: std::collections::HashSet<String>,
+    hidden_ids: HashMap<u32, u32>,
     cameras: Vec<CameraCandidate>,
     lights: Vec<PunctualLight>,
     stats: Stats,
@@ -271,6 +277,8 @@ impl<'a> Builder<'a> {
             needs: Vec::new(),
             images: ImageCache::default(),
             material_ids: HashMap::new(),
+            hidden_nodes: Default::default(),
+            hidden_ids: HashMap::new(),
             cameras: Vec::new(),
             lights: Vec::new(),
             stats: Stats::default(),
@@ -326,7 +334,7 @@ impl<'a> Builder<'a> {
             return Err(format!("node {unreached} is part of a node cycle"));
         }
         for mesh in 0..root.meshes.len() {
-            self.add_mesh(mesh, &Mat4::IDENTITY)?;
+            self.add_mesh(mesh, &Mat4::IDENTITY, false)?;
         }
         for b in 0..root.buffers.len() {
             self.buffers.get(b)?;
@@ -350,7 +358,8 @@ impl<'a> Builder<'a> {
             }
             let world = parent * local_transform(node);
             if let Some(mesh) = node.mesh {
-                self.add_mesh(mesh.value(), &world)?;
+                let hidden = node.name.as_ref().is_some_and(|n| self.hidden_nodes.contains(n));
+                self.add_mesh(mesh.value(), &world, hidden)?;
             }
             if let Some(light) = node.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
                 self.add_light(light.light.value(), node.name.as_deref(), &world);
@@ -476,7 +485,21 @@ impl<'a> Builder<'a> {
         Ok(Some(data))
     }
 
-    fn add_mesh(&mut self, mesh_index: usize, world: &Mat4) -> Result<(), String> {
+    /// A copy of material `id` hidden from the camera, made once.
+    fn hidden_material(&mut self, id: u32) -> u32 {
+        if let Some(&hidden) = self.hidden_ids.get(&id) {
+            return hidden;
+        }
+        let hidden = self.materials.len() as u32;
+        self.materials.push(Material { hidden_from_camera: true, ..self.materials[id as usize].clone() });
+        self.needs.push(self.needs[id as usize]);
+        self.hidden_ids.insert(id, hidden);
+        hidden
+    }
+
+    /// A mesh's triangles at a node's transform, `hidden` from the camera
+    /// or not.
+    fn add_mesh(&mut self, mesh_index: usize, world: &Mat4, hidden: bool) -> Result<(), String> {
         let root = self.root;
         let mesh = root.meshes.get(mesh_index).ok_or_else(|| format!("mesh {mesh_index} does not exist"))?;
         let linear = Mat3::from_mat4(*world);
@@ -510,6 +533,7 @@ impl<'a> Builder<'a> {
             }
             self.stats.dangling_indices += indices.len() % 3;
             let material = self.material_id(prim.material.map(|m| m.value()))?;
+            let material = if hidden { self.hidden_material(material) } else { material };
             let needs = self.needs[material as usize];
             let mut uvs: [Option<FloatData>; 2] = [None, None];
             for (set, semantic) in [Semantic::TexCoords(0), Semantic::TexCoords(1)].into_iter().enumerate() {
@@ -844,6 +868,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         specular_tint,
         anisotropy,
         anisotropy_rotation,
+        hidden_from_camera: false,
     }
 }
 

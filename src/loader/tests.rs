@@ -241,6 +241,22 @@ fn anisotropy_and_its_tangent_field() {
     assert_eq!(s.warnings, ["Brushed: the anisotropy texture is not read yet, only its strength and rotation factors"]);
 }
 
+/// A node hidden from the camera gets copies of its materials marked so,
+/// made once per material; another node's triangles keep the original.
+#[test]
+fn nodes_hidden_from_the_camera_get_hidden_copies_of_their_materials() {
+    let mut d = base_doc();
+    d["nodes"].as_array_mut().unwrap().push(json!({"name": "Card", "mesh": 0, "translation": [0.0, 0.0, 1.0]}));
+    d["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    let options = LoadOptions { hidden_from_camera: vec!["Card".into(), "Nothing".into()], ..LoadOptions::default() };
+    let s = load_bytes(d.to_string().as_bytes(), None, "test.gltf", &options).unwrap();
+    assert_eq!(s.materials.len(), 2);
+    let hidden: Vec<bool> = s.triangles.iter().map(|t| s.materials[t.material as usize].hidden_from_camera).collect();
+    assert_eq!(hidden, [false, false, true, true]);
+    assert_eq!(Material { hidden_from_camera: false, ..s.materials[1].clone() }, s.materials[0]);
+    assert!(load(&d).unwrap().materials.iter().all(|m| !m.hidden_from_camera));
+}
+
 /// KHR_materials_specular's specularColorFactor is Blender's Specular
 /// Tint: read and clamped, for metals and the dielectric layer alike.
 #[test]

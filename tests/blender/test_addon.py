@@ -148,6 +148,22 @@ def test_a_linked_tangent_is_named(empty_scene):
     assert not any("Tangent" in w for w in warnings), warnings
 
 
+def test_ray_visibility_goes_in_the_request_or_is_named(empty_scene):
+    """Objects hidden from the camera are listed in the request (their
+    render: test_visibility_vs_cycles.py); visibility to other rays, which
+    Glint does not render, is named in one warning an object."""
+    build_scene(empty_scene)
+    request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert request["hidden_from_camera"] == [] and not any("rays, which Glint" in w for w in warnings), warnings
+    sphere = bpy.data.objects["Sphere"]
+    sphere.visible_camera = False
+    sphere.visible_shadow = False
+    sphere.visible_glossy = False
+    request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert request["hidden_from_camera"] == ["Sphere"], request["hidden_from_camera"]
+    assert "Sphere: hidden from shadow, glossy rays, which Glint does not render (it sees the object with them)" in warnings, warnings
+
+
 def test_the_light_paths_setting_goes_in_the_request(empty_scene):
     """Auto leaves the choice to Glint (no field: the renderer decides from
     the scene); On and Off say so, and `glint render` honours the field
