@@ -10,9 +10,8 @@ tangents where a normal map needs them, and the colour attributes materials
 use), alpha, Transmission Weight and IOR (KHR_materials_transmission,
 KHR_materials_ior: glass), Coat Weight and Roughness
 (KHR_materials_clearcoat), Anisotropic and Anisotropic Rotation
-(KHR_materials_anisotropy; Glint stretches them along Cycles' default
-tangent, circles about the object's Z axis, and warns where the Tangent
-input is linked), cameras and mesh geometry with modifiers applied.
+(KHR_materials_anisotropy), cameras and mesh geometry with modifiers
+applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²); their radius and Soft Falloff, and a sun's
 angle, go in the request. Not carried, or not yet rendered
@@ -21,7 +20,10 @@ is warned), other Principled inputs (sheen, subsurface, thin film), and
 World node setups other than a plain Background colour or an equirectangular Environment Texture (with at most a
 Mapping node's Z rotation), which the request carries.
 
-Through the request: resolution × percentage, the objects hidden from the
+Through the request: resolution × percentage, the Tangent node that feeds
+an anisotropic Principled BSDF's Tangent (Radial about X, Y or Z, or a UV
+map; unlinked, Cycles' default, radial about Z; anything else is warned
+of and rendered as the default), the objects hidden from the
 camera (Object › Visibility › Ray Visibility › Camera; other rays'
 visibility is warned of, not rendered), the scene camera and what
 glTF cannot say of it (Shift X and Y, Depth of Field, a panoramic camera's
@@ -255,9 +257,9 @@ def render_request(depsgraph, job, width, height):
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
-    tangents = linked_tangents(depsgraph)
-    if tangents:
-        warnings.append(f"{', '.join(tangents)}: a linked Tangent is not rendered by Glint, which stretches Anisotropic along the default tangent (circles about the object's Z axis)")
+    tangents, other_tangents = anisotropy_tangents(depsgraph)
+    if other_tangents:
+        warnings.append(f"{', '.join(other_tangents)}: a Tangent other than a Tangent node's (Radial, or one of the first two UV maps) is not rendered by Glint, which stretches Anisotropic along the default tangent (circles about the object's Z axis)")
     request = {
         "job": job,
         "scene": "scene.glb",
@@ -278,6 +280,7 @@ def render_request(depsgraph, job, width, height):
         "area_lights": area_lights(depsgraph),
         "light_sizes": light_sizes(depsgraph),
         "hidden_from_camera": hidden_from_camera(depsgraph),
+        "anisotropy_tangents": tangents,
     }
     if environment:
         request["environment"] = environment
@@ -428,18 +431,40 @@ def coat_settings(depsgraph):
     return tints, sorted(set(iors))
 
 
-def linked_tangents(depsgraph):
-    """Names of materials whose Principled BSDF is anisotropic with its
-    Tangent input linked: Glint renders them along Cycles' default tangent
-    (circles about the object's Z axis), the one an unlinked input gets."""
-    names = []
+def anisotropy_tangents(depsgraph):
+    """The Tangent input of anisotropic Principled BSDFs: where a Tangent
+    node feeds it, a request record (Radial about the object's X, Y or Z,
+    or a UV map by its index among the mesh's UV maps: the exporter's
+    TEXCOORD_n); and the names of materials whose Tangent something else
+    feeds, which Glint renders along the default tangent (radial about Z,
+    what an unlinked input gets)."""
+    meshes = {}
+    for i in depsgraph.object_instances:
+        if i.object.type == "MESH":
+            for slot in i.object.material_slots:
+                if slot.material is not None:
+                    meshes.setdefault(slot.material.name, i.object.data)
+    records, others = [], []
     for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
         for node in (n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"):
-            anisotropic = node.inputs["Anisotropic"]
-            if (anisotropic.is_linked or anisotropic.default_value > 0.0) and node.inputs["Tangent"].is_linked:
-                names.append(m.name)
-                break
-    return names
+            anisotropic, tangent = node.inputs["Anisotropic"], node.inputs["Tangent"]
+            if not (anisotropic.is_linked or anisotropic.default_value > 0.0) or not tangent.is_linked:
+                continue
+            source = tangent.links[0].from_node
+            if source.type != "TANGENT":
+                others.append(m.name)
+            elif source.direction_type == "RADIAL":
+                records.append({"material": m.name, "radial_axis": source.axis})
+            else:
+                uv_layers = getattr(meshes.get(m.name), "uv_layers", None)
+                names = [layer.name for layer in uv_layers] if uv_layers is not None else []
+                index = names.index(source.uv_map) if source.uv_map in names else 0
+                if index > 1:
+                    others.append(m.name)
+                else:
+                    records.append({"material": m.name, "uv_map": index})
+            break
+    return records, others
 
 
 # Texture nodes that compute their values: glTF carries images only.

@@ -10,7 +10,7 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{CoatTint, LensRequest, LightSize, RenderRequest};
+use crate::request::{AnisotropyTangent, CoatTint, LensRequest, LightSize, RenderRequest};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -118,11 +118,12 @@ pub struct SceneExtras<'a> {
     pub lens: Option<&'a LensRequest>,
     /// Nodes whose meshes camera rays pass.
     pub hidden_from_camera: &'a [String],
+    pub anisotropy_tangents: &'a [AnisotropyTangent],
 }
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
     }
 }
 
@@ -178,7 +179,10 @@ fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
 /// Load a scene (None: the embedded default) and apply the options and the
 /// request's extras. Errors are one line naming the file.
 pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExtras) -> Result<Job, String> {
-    let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone(), hidden_from_camera: extras.hidden_from_camera.to_vec() };
+    let tangents = extras.anisotropy_tangents.iter().map(|t| Ok((t.material.clone(), t.source()?))).collect::<Result<Vec<_>, String>>();
+    let file_name = || scene_file.map_or(crate::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
+    let anisotropy_tangents = tangents.map_err(|e| format!("{}: {e}", file_name()))?;
+    let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone(), hidden_from_camera: extras.hidden_from_camera.to_vec(), anisotropy_tangents };
     let (mut scene, name) = match scene_file {
         Some(path) => (loader::load_file(path, &load).map_err(|e| e.to_string())?, path.display().to_string()),
         None => (

@@ -76,6 +76,32 @@ impl Surface {
 /// spp at roughness 0.1 and were even at 0.3.
 pub const FOCUSING_ROUGHNESS: f32 = 0.6;
 
+/// The tangent an anisotropic material is stretched along, as Cycles'
+/// Tangent node gives it (its default, for an unlinked Tangent input:
+/// radial about Z).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TangentSource {
+    /// Circles about one of the object's axes (Blender's X, Y or Z), from
+    /// its generated coordinates.
+    Radial(Axis),
+    /// The MikkTSpace tangent of a texture coordinate set (TEXCOORD_n).
+    UvMap(u32),
+}
+
+impl Default for TangentSource {
+    fn default() -> Self {
+        TangentSource::Radial(Axis::Z)
+    }
+}
+
+/// An axis of a Blender object (Z up).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
 /// glTF's alphaMode. Cycles renders alpha as stochastic transparency, and
 /// so does Glint: camera, bounce and shadow rays alike.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -163,6 +189,9 @@ pub struct Material {
     /// (`VertexAttributes::anisotropy_tangent`). 0 and 0 without it.
     pub anisotropy: f32,
     pub anisotropy_rotation: f32,
+    /// Where its anisotropy's tangent comes from (a render request's
+    /// `anisotropy_tangents`; Cycles' default without).
+    pub anisotropy_tangent: TangentSource,
     /// On an object hidden from the camera (Blender's Object › Visibility ›
     /// Ray Visibility › Camera off, from a render request): camera rays
     /// pass it and light tracing does not splat it; every other ray sees
@@ -199,6 +228,7 @@ impl Default for Material {
             specular_tint: Vec3::ONE,
             anisotropy: 0.0,
             anisotropy_rotation: 0.0,
+            anisotropy_tangent: TangentSource::default(),
             hidden_from_camera: false,
             textures: None,
             alpha: 1.0,

@@ -14,6 +14,8 @@
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "coat_tints": [ { "material": "Car paint", "tint": [0.6, 0.1, 0.1] } ],
 //!   "hidden_from_camera": [ "Bounce card" ],
+//!   "anisotropy_tangents": [ { "material": "Brushed", "uv_map": 0 },
+//!     { "material": "Dial", "radial_axis": "X" } ],
 //!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
 //!     { "name": "Sun", "angle": 0.00918 } ],
 //!   "lens": { "shift": [0.1, 0], "aperture": { "radius": 0.0125,
@@ -88,6 +90,9 @@ pub struct RenderRequest {
     /// Nodes (Blender objects) hidden from the camera: camera rays pass
     /// their meshes, which every other ray sees.
     pub hidden_from_camera: Vec<String>,
+    /// Anisotropic materials, by name, whose Tangent input is a Tangent
+    /// node: radial about another axis than Z, or a UV map's.
+    pub anisotropy_tangents: Vec<AnisotropyTangent>,
     /// What Blender's camera has and glTF cannot carry.
     pub lens: Option<LensRequest>,
     /// Blender's Film › Transparent: the camera does not see the World and
@@ -113,6 +118,32 @@ pub struct LensRequest {
     /// A panoramic camera's projection (panorama.rs), which replaces the
     /// glTF camera's; its shift is in fractions of the view's unit square.
     pub panorama: Option<crate::panorama::Panorama>,
+}
+
+/// A material's Tangent node (Blender's Principled BSDF › Tangent): one of
+/// `radial_axis` (Radial, about the object's X, Y or Z) and `uv_map` (UV
+/// Map: the texture coordinate set, TEXCOORD_n, whose tangent it takes).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnisotropyTangent {
+    pub material: String,
+    #[serde(default)]
+    pub radial_axis: Option<crate::material::Axis>,
+    #[serde(default)]
+    pub uv_map: Option<u32>,
+}
+
+impl AnisotropyTangent {
+    /// The source it names; an error unless it names exactly one.
+    pub fn source(&self) -> Result<crate::material::TangentSource, String> {
+        use crate::material::TangentSource;
+        match (self.radial_axis, self.uv_map) {
+            (Some(axis), None) => Ok(TangentSource::Radial(axis)),
+            (None, Some(set)) if set <= 1 => Ok(TangentSource::UvMap(set)),
+            (None, Some(set)) => Err(format!("anisotropy tangent of '{}': UV map {set} is not read (TEXCOORD_0 and _1 are)", self.material)),
+            _ => Err(format!("anisotropy tangent of '{}' must have one of radial_axis and uv_map", self.material)),
+        }
+    }
 }
 
 /// What KHR_lights_punctual cannot say of a Blender light (punctual.rs).

@@ -11,7 +11,7 @@ mod images;
 mod tangents;
 
 use crate::camera::{Camera, Projection};
-use crate::material::{AlphaMode, Material, MaterialTextures};
+use crate::material::{AlphaMode, Axis, Material, MaterialTextures, TangentSource};
 use crate::punctual::{PunctualKind, PunctualLight};
 use crate::scene::{Scene, Triangle, VertexAttributes};
 use accessor::{read_floats, read_indices, BinChunk, Buffers, FloatData};
@@ -78,6 +78,9 @@ pub struct LoadOptions {
     pub camera: Option<String>,
     /// Nodes whose meshes camera rays pass (`Material::hidden_from_camera`).
     pub hidden_from_camera: Vec<String>,
+    /// Materials, by name, and their anisotropy's tangent
+    /// (`Material::anisotropy_tangent`).
+    pub anisotropy_tangents: Vec<(String, TangentSource)>,
 }
 
 /// What `inspect_file` found when it read everything in a file.
@@ -189,6 +192,7 @@ fn load_parts(json: &[u8], bin: Option<BinChunk>, base_dir: Option<&Path>, optio
     let root = parse_root(json)?;
     let mut builder = Builder::new(&root, bin, base_dir);
     builder.hidden_nodes = options.hidden_from_camera.iter().cloned().collect();
+    builder.anisotropy_tangents = options.anisotropy_tangents.clone();
     builder.walk_scene(options.scene_index)?;
     let camera = match options.camera.as_deref() {
         Some(AUTO_CAMERA) => {
@@ -248,6 +252,7 @@ struct Builder<'a> {
     /// Nodes hidden from the camera, and ours → its hidden copy.
     hidden_nodes: std::collections::HashSet<String>,
     hidden_ids: HashMap<u32, u32>,
+    anisotropy_tangents: Vec<(String, TangentSource)>,
     cameras: Vec<CameraCandidate>,
     lights: Vec<PunctualLight>,
     stats: Stats,
@@ -279,6 +284,7 @@ impl<'a> Builder<'a> {
             material_ids: HashMap::new(),
             hidden_nodes: Default::default(),
             hidden_ids: HashMap::new(),
+            anisotropy_tangents: Vec::new(),
             cameras: Vec::new(),
             lights: Vec::new(),
             stats: Stats::default(),
@@ -414,6 +420,9 @@ impl<'a> Builder<'a> {
             Some(i) => {
                 let m = self.root.materials.get(i).ok_or_else(|| format!("material {i} does not exist"))?;
                 let mut material = convert_material(m, i);
+                if let Some((_, source)) = self.anisotropy_tangents.iter().find(|(name, _)| *name == material.name) {
+                    material.anisotropy_tangent = *source;
+                }
                 let textures = self.material_textures(m).map_err(|e| format!("material {i}: {e}"))?;
                 let needs = needs_of(&textures);
                 material.textures = (textures != MaterialTextures::default()).then(|| Box::new(textures));
@@ -554,6 +563,21 @@ impl<'a> Builder<'a> {
                     None => uvs[set].as_ref().map(|uv| generated_tangents(&indices[..whole], &positions, normals.as_ref(), uv)),
                 },
             };
+            // An anisotropic material's tangents, per corner, where a UV
+            // map gives them (Cycles' Tangent node, UV Map).
+            let m = &self.materials[material as usize];
+            let uv_tangents: Option<Vec<[f32; 4]>> = match m.anisotropy_tangent {
+                TangentSource::UvMap(set) if m.anisotropy > 0.0 => {
+                    let uv = match uvs[set as usize].take() {
+                        Some(uv) => Some(uv),
+                        None => self.attribute(prim, Semantic::TexCoords(set), &[Type::Vec2], vertex_count).map_err(what)?,
+                    };
+                    let corners = uv.as_ref().map(|uv| generated_tangents(&indices[..whole], &positions, normals.as_ref(), uv));
+                    uvs[set as usize] = uv.filter(|_| needs.uv[set as usize]);
+                    Some(corners.unwrap_or_default())
+                }
+                _ => None,
+            };
             let tangent_sign = if flip { -1.0 } else { 1.0 };
             for (k, tri) in indices.chunks_exact(3).enumerate() {
                 let mut order = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
@@ -601,8 +625,18 @@ impl<'a> Builder<'a> {
                     })
                 });
                 push_column(&mut a.tangent, before, tangent, [Vec4::ZERO; 3]);
-                let anisotropic = radial.as_ref().filter(|_| self.materials[material as usize].anisotropy > 0.0);
-                let field = anisotropic.map(|r| order.map(|i| r.at(Vec3::from(positions.get3(i)), &normal_matrix)));
+                let m = &self.materials[material as usize];
+                // Object-space tangents turn into the world as normals do,
+                // as Cycles' Tangent node turns them.
+                let turned = |v: Vec3| {
+                    let w = normal_matrix * v;
+                    if w.is_finite() { w } else { Vec3::ZERO }
+                };
+                let field = match (&uv_tangents, m.anisotropy_tangent, radial.as_ref()) {
+                    (Some(t), _, _) => Some(corners.map(|c| t.get(c).map_or(Vec3::ZERO, |&[x, y, z, _]| turned(Vec3::new(x, y, z))))),
+                    (None, TangentSource::Radial(axis), Some(r)) if m.anisotropy > 0.0 => Some(order.map(|i| turned(r.at(Vec3::from(positions.get3(i)), axis)))),
+                    _ => None,
+                };
                 push_column(&mut a.anisotropy_tangent, before, field, [Vec3::ZERO; 3]);
             }
         }
@@ -764,13 +798,18 @@ impl RadialTangents {
         RadialTangents { centre: (lo + hi) * 0.5, half_size }
     }
 
-    /// The world-space (unnormalised) field at local position `p`, for an
-    /// object whose normals turn by `normal_matrix`; zero where that is
-    /// not finite.
-    fn at(&self, p: Vec3, normal_matrix: &Mat3) -> Vec3 {
+    /// The (unnormalised) object-space field about `axis` at local
+    /// position `p`, in glTF's axes. About Blender's Z it is the vector
+    /// above; about X, Cycles' (0, −(g_z − ½), g_y − ½), which is (0, −d_z,
+    /// d_y) in glTF's axes; about Y, (−(g_z − ½), 0, g_x − ½): (−d_y, d_x,
+    /// 0) — d = (p − L)/(2S).
+    fn at(&self, p: Vec3, axis: Axis) -> Vec3 {
         let d = (p - self.centre) / (2.0 * self.half_size);
-        let v = *normal_matrix * Vec3::new(d.z, 0.0, -d.x);
-        if v.is_finite() { v } else { Vec3::ZERO }
+        match axis {
+            Axis::X => Vec3::new(0.0, -d.z, d.y),
+            Axis::Y => Vec3::new(-d.y, d.x, 0.0),
+            Axis::Z => Vec3::new(d.z, 0.0, -d.x),
+        }
     }
 }
 
@@ -868,6 +907,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         specular_tint,
         anisotropy,
         anisotropy_rotation,
+        anisotropy_tangent: TangentSource::default(),
         hidden_from_camera: false,
     }
 }

@@ -241,6 +241,51 @@ fn anisotropy_and_its_tangent_field() {
     assert_eq!(s.warnings, ["Brushed: the anisotropy texture is not read yet, only its strength and rotation factors"]);
 }
 
+/// A Tangent node's tangent for an anisotropic material, as Cycles' Tangent
+/// node gives it: Radial about Blender's X, (0, −d_z, d_y) in glTF's axes,
+/// and about Y, (−d_y, d_x, 0), with d the position in the mesh's bounds
+/// (here (x − 0.5, y − 0.5, z/2)); a UV map's MikkTSpace tangent (the
+/// quad's u runs along +x) turned by the inverse transpose (a node scaled
+/// 2× along x halves it). Without UVs the field is zero (Cycles' Tangent
+/// node gives none either). A request names one source, else one line.
+#[test]
+fn a_tangent_node_gives_the_anisotropy_its_tangent() {
+    let mut d = base_doc();
+    d["extensionsUsed"] = json!(["KHR_materials_anisotropy"]);
+    d["materials"][0]["name"] = json!("Brushed");
+    d["materials"][0]["extensions"] = json!({"KHR_materials_anisotropy": {"anisotropyStrength": 0.5}});
+    let with = |source: TangentSource, d: &Value| {
+        let options = LoadOptions { anisotropy_tangents: vec![("Brushed".into(), source)], ..LoadOptions::default() };
+        let s = load_bytes(d.to_string().as_bytes(), None, "test.gltf", &options).unwrap();
+        assert_eq!(s.materials[0].anisotropy_tangent, source);
+        s.triangles.iter().zip(&s.attributes.anisotropy_tangent).flat_map(|(t, f)| t.p().into_iter().zip(*f)).collect::<Vec<_>>()
+    };
+    for (p, v) in with(TangentSource::Radial(Axis::X), &d) {
+        assert!((v - Vec3::new(0.0, 0.0, p.y - 0.5)).length() < 1e-6, "about X at {p}: {v}");
+    }
+    for (p, v) in with(TangentSource::Radial(Axis::Y), &d) {
+        assert!((v - Vec3::new(-(p.y - 0.5), p.x - 0.5, 0.0)).length() < 1e-6, "about Y at {p}: {v}");
+    }
+    assert!(with(TangentSource::UvMap(0), &d).iter().all(|(_, v)| *v == Vec3::ZERO), "no TEXCOORD_0: no tangent");
+    let mut uv = d.clone();
+    let mut buf = quad_buffer();
+    buf.extend(f32s(&[0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0]));
+    uv["buffers"][0] = json!({"byteLength": buf.len(), "uri": data_uri(&buf)});
+    uv["bufferViews"].as_array_mut().unwrap().push(json!({"buffer": 0, "byteOffset": 108, "byteLength": 32}));
+    uv["accessors"].as_array_mut().unwrap().push(json!({"bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC2"}));
+    uv["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(3);
+    uv["nodes"][1]["scale"] = json!([2.0, 1.0, 1.0]);
+    for (p, v) in with(TangentSource::UvMap(0), &uv) {
+        assert!((v - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6, "UV map at {p}: {v}");
+    }
+    let request: crate::request::AnisotropyTangent = serde_json::from_str(r#"{"material": "Brushed", "radial_axis": "Y"}"#).unwrap();
+    assert_eq!(request.source(), Ok(TangentSource::Radial(Axis::Y)));
+    for bad in [r#"{"material": "Brushed"}"#, r#"{"material": "Brushed", "radial_axis": "X", "uv_map": 0}"#, r#"{"material": "Brushed", "uv_map": 2}"#] {
+        let e = serde_json::from_str::<crate::request::AnisotropyTangent>(bad).unwrap().source().unwrap_err();
+        assert!(e.starts_with("anisotropy tangent of 'Brushed'") && !e.contains('\n'), "{e}");
+    }
+}
+
 /// A node hidden from the camera gets copies of its materials marked so,
 /// made once per material; another node's triangles keep the original.
 #[test]

@@ -130,22 +130,32 @@ def test_the_request_carries_area_lights_and_the_world(empty_scene):
     assert -m[:3, 2] == pytest.approx([0, -1, 0])
 
 
-def test_a_linked_tangent_is_named(empty_scene):
-    """Anisotropic renders along Cycles' default tangent; a Tangent input
-    linked to anything else is named in a warning."""
+def test_a_tangent_node_goes_in_the_request(empty_scene):
+    """Anisotropic renders along Cycles' default tangent unless a Tangent
+    node feeds the Tangent input: its Radial axis or its UV map goes in the
+    request; anything else feeding it is named in a warning."""
     build_scene(empty_scene)
     red = bpy.data.materials["Red"]
     principled = red.node_tree.nodes["Principled BSDF"]
     principled.inputs["Anisotropic"].default_value = 0.5
-    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-    assert not any("Tangent" in w for w in warnings), warnings
+
+    def tangents():
+        request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        return request["anisotropy_tangents"], [w for w in warnings if "Tangent" in w]
+
+    assert tangents() == ([], [])
     tangent = red.node_tree.nodes.new("ShaderNodeTangent")
     red.node_tree.links.new(tangent.outputs["Tangent"], principled.inputs["Tangent"])
-    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-    assert any(w.startswith("Red: a linked Tangent is not rendered by Glint") for w in warnings), warnings
+    tangent.direction_type, tangent.axis = "RADIAL", "X"
+    assert tangents() == ([{"material": "Red", "radial_axis": "X"}], [])
+    tangent.direction_type, tangent.uv_map = "UV_MAP", "UVMap"
+    assert tangents() == ([{"material": "Red", "uv_map": 0}], [])
+    geometry = red.node_tree.nodes.new("ShaderNodeNewGeometry")
+    red.node_tree.links.new(geometry.outputs["Tangent"], principled.inputs["Tangent"])
+    records, warnings = tangents()
+    assert records == [] and warnings and warnings[0].startswith("Red: a Tangent other than a Tangent node's"), warnings
     principled.inputs["Anisotropic"].default_value = 0.0
-    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-    assert not any("Tangent" in w for w in warnings), warnings
+    assert tangents() == ([], [])
 
 
 def test_ray_visibility_goes_in_the_request_or_is_named(empty_scene):

@@ -220,17 +220,22 @@ def test_specular_tint_matches_cycles(empty_scene, tmp_path, metallic, roughness
 # turned and squeezed: its mesh half as wide along x, its object scaled 2×
 # along x, a round sphere still, whose texture space is then half as wide
 # along x and whose tangents turn by the inverse transpose of its matrix.
+# Then a Tangent node: Radial about X, and the sphere's UV map (its u runs
+# round the sphere: the same circles as the default, so the sphere is
+# turned and the rotation a tenth of a turn, where a wrong frame shows).
 ANISOTROPIC = [
-    (1.0, 0.3, 0.8, 0.0, None, False),
-    (1.0, 0.5, 1.0, 0.25, None, False),
-    (0.0, 0.25, 0.9, 0.0, None, False),
-    (1.0, 0.3, 0.8, 0.1, (50.0, 0.0, 30.0), False),
-    (1.0, 0.4, 1.0, 0.0, (50.0, 0.0, 30.0), True),
+    (1.0, 0.3, 0.8, 0.0, None, False, None),
+    (1.0, 0.5, 1.0, 0.25, None, False, None),
+    (0.0, 0.25, 0.9, 0.0, None, False, None),
+    (1.0, 0.3, 0.8, 0.1, (50.0, 0.0, 30.0), False, None),
+    (1.0, 0.4, 1.0, 0.0, (50.0, 0.0, 30.0), True, None),
+    (1.0, 0.3, 0.9, 0.0, (50.0, 0.0, 30.0), False, ("RADIAL", "X")),
+    (1.0, 0.3, 0.9, 0.1, (50.0, 0.0, 30.0), True, ("UV_MAP", "UVMap")),
 ]
 
 
-@pytest.mark.parametrize("metallic, roughness, anisotropy, rotation, turned, squeezed", ANISOTROPIC)
-def test_anisotropic_sphere_matches_cycles(empty_scene, tmp_path, metallic, roughness, anisotropy, rotation, turned, squeezed):
+@pytest.mark.parametrize("metallic, roughness, anisotropy, rotation, turned, squeezed, tangent", ANISOTROPIC)
+def test_anisotropic_sphere_matches_cycles(empty_scene, tmp_path, metallic, roughness, anisotropy, rotation, turned, squeezed, tangent):
     """Anisotropic and Anisotropic Rotation reach Glint through the
     exporter's KHR_materials_anisotropy; with the Tangent input unlinked,
     Cycles stretches the highlight along circles about the object's Z axis
@@ -244,7 +249,16 @@ def test_anisotropic_sphere_matches_cycles(empty_scene, tmp_path, metallic, roug
         sphere.scale = (2.0, 1.0, 1.0)
     if turned:
         sphere.rotation_euler = [math.radians(a) for a in turned]
+    if tangent:
+        tree = bpy.data.materials["M"].node_tree
+        node = tree.nodes.new("ShaderNodeTangent")
+        node.direction_type = tangent[0]
+        if tangent[0] == "RADIAL":
+            node.axis = tangent[1]
+        else:
+            node.uv_map = tangent[1]
+        tree.links.new(node.outputs["Tangent"], tree.nodes["Principled BSDF"].inputs["Tangent"])
     z, bias, c, g = compare(empty_scene, tmp_path, 64)
-    print(f"anisotropic {anisotropy} rotation {rotation} turned {turned} squeezed {squeezed}, metallic {metallic} roughness {roughness}: "
+    print(f"anisotropic {anisotropy} rotation {rotation} turned {turned} squeezed {squeezed} tangent {tangent}, metallic {metallic} roughness {roughness}: "
           f"bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
     assert z.max() < 5.0, (z.max(), bias)
