@@ -31,7 +31,7 @@ pub struct Surface {
     /// Blender's Coat Tint (white: none).
     pub coat_tint: Vec3,
     /// Blender's Specular Tint (glTF's specularColorFactor): the metal's
-    /// F82 tint and the dielectric layer's F0 tint.
+    /// F82 tint, the dielectric layer's and the glass's F0 tint.
     pub specular_tint: Vec3,
     /// The coat's own normal where it differs from the shading normal:
     /// the interpolated normal before the base's normal map (Cycles' Coat
@@ -178,8 +178,8 @@ pub struct Material {
     /// Blender's Coat Tint, from a render request (white without).
     pub coat_tint: Vec3,
     /// KHR_materials_specular specularColorFactor, Blender's Specular Tint
-    /// (white without): the metal's F82 tint and the dielectric layer's F0
-    /// tint.
+    /// (white without): the metal's F82 tint and the dielectric layer's and
+    /// the glass's F0 tint.
     pub specular_tint: Vec3,
     /// KHR_materials_anisotropy's anisotropyStrength and anisotropyRotation
     /// (in turns), read as Blender's importer reads them: Blender's

@@ -36,6 +36,13 @@ use crate::Vec3;
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
+/// k of a generalized-Schlick tint of F0 (Cycles' Specular Tint on a
+/// dielectric), F_t = (1 + k)·F − k: F0·(1 − tint)/(1 − F0), zero for a
+/// white tint, the tint in [0, 1].
+pub fn specular_tint_k(f0: f32, tint: Vec3) -> Vec3 {
+    (Vec3::ONE - tint) * (f0 / (1.0 - f0))
+}
+
 /// |η − 1| under which the boundary bends nothing and reflects nothing: a
 /// ray passes straight on (the generalised half vector is undefined there).
 const INDEX_MATCHED: f32 = 1e-3;
@@ -51,6 +58,8 @@ pub struct Dielectric {
     /// Multiple-scattering compensation of both lobes (1 when smooth or
     /// plain "GGX").
     scale: Vec3,
+    /// Specular Tint's k (`with_specular_tint`); None untinted.
+    specular_k: Option<Vec3>,
 }
 
 /// wo refracted through the microfacet normal h (wo·h > 0) into the side
@@ -86,7 +95,32 @@ impl Dielectric {
             let t = glass_tables();
             ms_scale(t.e(mu, roughness, eta), ms_fraction(t.e_avg(roughness, eta), tint))
         };
-        Dielectric { eta, alpha, smooth, tint, scale }
+        Dielectric { eta, alpha, smooth, tint, scale, specular_k: None }
+    }
+
+    /// Blender's Specular Tint on glass, as Cycles' Principled BSDF takes
+    /// it: F0 × tint, and F = mix(F0·tint, 1, s) along the exact curve —
+    /// per channel F_t = (1 + k)·F − k, k = F0(1 − tint)/(1 − F0), the
+    /// dielectric layer's form (principled.rs) — in what the glass
+    /// reflects and, as 1 − F_t, in what it lets through. Sampling still
+    /// picks a side by the untinted F; a white tint changes nothing.
+    pub fn with_specular_tint(self, tint: Vec3) -> Self {
+        let tint = tint.clamp(Vec3::ZERO, Vec3::ONE);
+        let r = (self.eta - 1.0) / (self.eta + 1.0);
+        if tint == Vec3::ONE {
+            return self;
+        }
+        Dielectric { specular_k: Some(specular_tint_k(r * r, tint)), ..self }
+    }
+
+    /// Fresnel F at a microfacet as the two sides get it: reflected F_t and
+    /// refracted 1 − F_t, per channel.
+    #[inline]
+    fn tinted(&self, f: f32) -> Option<(Vec3, Vec3)> {
+        self.specular_k.map(|k| {
+            let reflected = ((Vec3::ONE + k) * f - k).clamp(Vec3::ZERO, Vec3::ONE);
+            (reflected, Vec3::ONE - reflected)
+        })
     }
 
     /// The microfacet normal joining wo and wi, facing +z, with whether wi
@@ -114,11 +148,17 @@ impl Dielectric {
         let (wo_h, wi_h) = (wo.dot(h), wi.dot(h));
         let f = fresnel_dielectric(wo_h, self.eta);
         let dg = d(h, self.alpha) * g2(wo, upper(wi), self.alpha);
-        if refracted {
-            let denom = self.eta * wi_h + wo_h;
-            self.tint * self.scale * (dg * (1.0 - f) * wi_h.abs() * wo_h / (wo.z * wi.z.abs() * denom * denom))
-        } else {
-            self.scale * (dg * f / (4.0 * wo.z * wi.z))
+        match (refracted, self.tinted(f)) {
+            (true, None) => {
+                let denom = self.eta * wi_h + wo_h;
+                self.tint * self.scale * (dg * (1.0 - f) * wi_h.abs() * wo_h / (wo.z * wi.z.abs() * denom * denom))
+            }
+            (false, None) => self.scale * (dg * f / (4.0 * wo.z * wi.z)),
+            (true, Some((_, through))) => {
+                let denom = self.eta * wi_h + wo_h;
+                self.tint * self.scale * (dg * through * wi_h.abs() * wo_h / (wo.z * wi.z.abs() * denom * denom))
+            }
+            (false, Some((reflected, _))) => self.scale * (dg * reflected / (4.0 * wo.z * wi.z)),
         }
     }
 
@@ -145,13 +185,20 @@ impl Dielectric {
         let radiance = 1.0 / (self.eta * self.eta);
         if self.smooth {
             let f = fresnel_dielectric(wo.z, self.eta);
+            let tinted = self.tinted(f);
             if u_lobe < f {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some(BsdfSample { wi, f: Vec3::splat(f), pdf: f, weight: Vec3::ONE, delta: true });
+                return Some(match tinted {
+                    None => BsdfSample { wi, f: Vec3::splat(f), pdf: f, weight: Vec3::ONE, delta: true },
+                    Some((reflected, _)) => BsdfSample { wi, f: reflected, pdf: f, weight: reflected / f, delta: true },
+                });
             }
             let wi = refract(wo, Vec3::Z, self.eta)?;
             let weight = self.tint * radiance;
-            return Some(BsdfSample { wi, f: weight * (1.0 - f), pdf: 1.0 - f, weight, delta: true });
+            return Some(match tinted {
+                None => BsdfSample { wi, f: weight * (1.0 - f), pdf: 1.0 - f, weight, delta: true },
+                Some((_, through)) => BsdfSample { wi, f: weight * through, pdf: 1.0 - f, weight: weight * through / (1.0 - f), delta: true },
+            });
         }
         let h = sample_visible_normal(wo, self.alpha, u);
         let f = fresnel_dielectric(wo.dot(h), self.eta);

@@ -114,6 +114,61 @@ fn smooth_glass_is_fresnel_and_snell_exactly() {
     assert!(refract(dir_at(42.0), Vec3::Z, 1.0 / 1.5).is_none() && refract(dir_at(41.0), Vec3::Z, 1.0 / 1.5).is_some());
 }
 
+/// Specular Tint on glass: a smooth boundary reflects F_t = (1 + k)F − k
+/// per channel (F0·tint head-on, 1 past the critical angle) and lets
+/// through 1 − F_t, sampled by the untinted F; rough glass weighs its two
+/// lobes the same way; a white tint is the untinted glass bit for bit.
+#[test]
+fn specular_tint_tints_f0_of_what_glass_reflects_and_lets_through() {
+    let tint = Vec3::new(1.0, 0.3, 0.1);
+    let base = Vec3::new(0.9, 0.8, 0.7);
+    for eta in ETAS {
+        let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+        let k = super::dielectric::specular_tint_k(f0, tint);
+        for theta in [0.0f32, 30.0, 60.0, 85.0] {
+            let wo = dir_at(theta);
+            let f = microfacet::fresnel_dielectric(wo.z, eta);
+            let reflected = ((Vec3::ONE + k) * f - k).clamp(Vec3::ZERO, Vec3::ONE);
+            let g = Dielectric::new(eta, 0.0, base, true, wo.z).with_specular_tint(tint);
+            // u_lobe 0 reflects, just under 1 refracts (where anything does).
+            let r = g.sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
+            assert!((r.f - reflected).abs().max_element() < 1e-6 && (r.weight * r.pdf - reflected).abs().max_element() < 1e-6, "η {eta} θo {theta}: {} vs {reflected}", r.f);
+            if let Some(t) = g.sample(wo, 0.999_999, Vec2::splat(0.5)).filter(|s| s.wi.z < 0.0) {
+                let through = (Vec3::ONE - reflected) * base / (eta * eta);
+                assert!((t.f - through).abs().max_element() < 1e-5 && (t.pdf - (1.0 - f)).abs() < 1e-6, "η {eta} θo {theta}: {} vs {through}", t.f);
+            }
+            if theta == 0.0 {
+                assert!((reflected - f0 * tint).abs().max_element() < 1e-6);
+            }
+            let mut rng = Rng::new(7, 3);
+            for roughness in [0.0f32, 0.3] {
+                let plain = Dielectric::new(eta, roughness, base, true, wo.z);
+                let white = plain.with_specular_tint(Vec3::ONE);
+                for _ in 0..50 {
+                    let (u, ul) = (rng.next_2d(), rng.next_f32());
+                    let (a, b) = (plain.sample(wo, ul, u), white.sample(wo, ul, u));
+                    assert_eq!(a.map(|s| (s.wi, s.f, s.pdf, s.weight)), b.map(|s| (s.wi, s.f, s.pdf, s.weight)));
+                }
+            }
+        }
+        // Rough: each side's value is the untinted one times its tinted share.
+        let wo = dir_at(40.0);
+        let (plain, tinted) = (Dielectric::new(eta, 0.3, base, true, wo.z), Dielectric::new(eta, 0.3, base, true, wo.z).with_specular_tint(tint));
+        let mut rng = Rng::new(8, 1);
+        for _ in 0..200 {
+            let Some(s) = plain.sample(wo, rng.next_f32(), rng.next_2d()) else { continue };
+            let h = if s.wi.z > 0.0 { (wo + s.wi).normalize() } else { -(wo + eta * s.wi).normalize() };
+            let h = if h.z < 0.0 { -h } else { h };
+            let f = microfacet::fresnel_dielectric(wo.dot(h), eta);
+            let t = ((Vec3::ONE + k) * f - k).clamp(Vec3::ZERO, Vec3::ONE);
+            let share = if s.wi.z > 0.0 { t / f } else { (Vec3::ONE - t) / (1.0 - f) };
+            let expected = plain.eval(wo, s.wi) * share;
+            assert!((tinted.eval(wo, s.wi) - expected).abs().max_element() <= 1e-4 * expected.max_element().max(1e-3), "η {eta}: {} vs {expected}", tinted.eval(wo, s.wi));
+            assert_eq!(tinted.pdf(wo, s.wi), plain.pdf(wo, s.wi));
+        }
+    }
+}
+
 /// The table against a quadrature of the lobe itself over the whole
 /// sphere (eval, not the sampler the table was built with), without
 /// compensation or radiance scaling.

@@ -136,8 +136,7 @@ struct Tints {
 /// k of a tinted dielectric layer, F_t = (1 + k)·F − k: F0·(1 − tint)/(1 −
 /// F0) at the tables' IOR 1.5 (zero for a white tint), the tint in [0, 1].
 fn dielectric_tint_k(tint: Vec3) -> Vec3 {
-    let f0 = ((DIELECTRIC_ETA - 1.0) / (DIELECTRIC_ETA + 1.0)).powi(2);
-    (Vec3::ONE - tint) * (f0 / (1.0 - f0))
+    super::dielectric::specular_tint_k(((DIELECTRIC_ETA - 1.0) / (DIELECTRIC_ETA + 1.0)).powi(2), tint)
 }
 
 /// b of the F82-tint model for F0 and a Specular Tint in [0, 1]: F(1/7)

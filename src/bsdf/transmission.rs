@@ -42,7 +42,7 @@ impl<B: Bsdf> WithGlass<B> {
     pub fn new(s: &Surface, wo: Vec3) -> Self {
         let metallic = s.metallic.clamp(0.0, 1.0);
         let t = (1.0 - metallic) * s.transmission.clamp(0.0, 1.0);
-        let glass = (t > 0.0).then(|| Dielectric::new(glass_eta(s), s.roughness, s.base_color.clamp(Vec3::ZERO, Vec3::ONE).map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)));
+        let glass = (t > 0.0).then(|| Dielectric::new(glass_eta(s), s.roughness, s.base_color.clamp(Vec3::ZERO, Vec3::ONE).map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)).with_specular_tint(s.specular_tint));
         let base = (t < 1.0).then(|| B::new(&Surface { metallic: metallic / (1.0 - t), transmission: 0.0, ..*s }, wo));
         WithGlass { base, glass, glass_weight: t, glass_probability: t }
     }

@@ -20,15 +20,22 @@ from test_textures_vs_cycles import compare
 BOUNCES = 16
 
 
-@pytest.mark.parametrize("roughness, colour, ior", [(0.0, (1.0, 1.0, 1.0), 1.5), (0.3, (0.9, 0.75, 0.5), 1.45)])
-def test_glass_sphere_matches_cycles(empty_scene, tmp_path, roughness, colour, ior):
+# Specular Tint on glass (the exporter's specularColorFactor) tints F0 as
+# on the dielectric layer: F = mix(F0·tint, 1, s) along the exact curve, in
+# what the glass reflects and what it lets through, 1 − F.
+TINT = (1.0, 0.3, 0.1, 1.0)
+
+
+@pytest.mark.parametrize("roughness, colour, ior, specular_tint", [(0.0, (1.0, 1.0, 1.0), 1.5, None), (0.3, (0.9, 0.75, 0.5), 1.45, None), (0.0, (1.0, 1.0, 1.0), 1.5, TINT), (0.3, (0.9, 0.75, 0.5), 1.45, TINT)])
+def test_glass_sphere_matches_cycles(empty_scene, tmp_path, roughness, colour, ior, specular_tint):
     plain_world(empty_scene, (0.8, 0.85, 0.9))
     for x, tint in [(-2.0, (0.8, 0.2, 0.1, 1.0)), (2.0, (0.1, 0.3, 0.8, 1.0))]:
         bpy.ops.mesh.primitive_plane_add(size=4.0, location=(x, 0, 0))
         give_principled(bpy.context.object, f"Floor {x}", Base_Color=tint, Roughness=0.8)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.8, location=(0, 0, 0.8))
     bpy.ops.object.shade_smooth()
-    give_principled(bpy.context.object, "Glass", Base_Color=(*colour, 1.0), Roughness=roughness, Transmission_Weight=1.0, IOR=ior)
+    tinted = {"Specular_Tint": specular_tint} if specular_tint else {}
+    give_principled(bpy.context.object, "Glass", Base_Color=(*colour, 1.0), Roughness=roughness, Transmission_Weight=1.0, IOR=ior, **tinted)
     add_camera(empty_scene, (0, -4.0, 1.6), (math.radians(80), 0, 0), lens=50)
     empty_scene.render.resolution_x = empty_scene.render.resolution_y = 32
     empty_scene.view_settings.view_transform = "Standard"
@@ -39,7 +46,7 @@ def test_glass_sphere_matches_cycles(empty_scene, tmp_path, roughness, colour, i
     glass = next(m for m in glb_json(daemon.current().path("scene.glb"))["materials"] if m["name"] == "Glass")
     assert glass["extensions"]["KHR_materials_transmission"]["transmissionFactor"] == 1.0
     assert abs(glass["extensions"].get("KHR_materials_ior", {"ior": 1.5})["ior"] - ior) < 1e-6
-    print(f"glass, roughness {roughness}: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
+    print(f"glass, roughness {roughness}, specular tint {specular_tint}: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
     assert z.max() < 5.0, (z.max(), bias)
 
 
