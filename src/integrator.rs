@@ -1253,7 +1253,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
 
 #[cfg(test)]
 mod tests {
-    use super::anisotropy_axis;
+    use super::*;
+    use crate::bsdf::{PrincipledBsdf, WithGlass};
+    use crate::camera::Camera;
+    use crate::material::Material;
+    use crate::scene::Triangle;
 
     /// The tangent set square to the normal, turned counter-clockwise seen
     /// from above (a quarter turn takes +x to +y), and +x at the pole of
@@ -1268,12 +1272,6 @@ mod tests {
         assert_eq!(anisotropy_axis(Vec3::ZERO, 0.0), Vec3::X);
         assert!((anisotropy_axis(Vec3::new(1e-30, 3e-31, 1.0), 0.37).length() - 1.0).abs() < 1e-6);
     }
-
-    use super::*;
-    use crate::bsdf::{PrincipledBsdf, WithGlass};
-    use crate::camera::Camera;
-    use crate::material::Material;
-    use crate::scene::Triangle;
 
     /// A BSDF made from a material's prepared part is the one a hit would
     /// build from its surface, on either face (the back face inverts the

@@ -568,12 +568,14 @@ impl<'a> Builder<'a> {
             let m = &self.materials[material as usize];
             let uv_tangents: Option<Vec<[f32; 4]>> = match m.anisotropy_tangent {
                 TangentSource::UvMap(set) if m.anisotropy > 0.0 => {
-                    let uv = match uvs[set as usize].take() {
+                    // Sets 0 and 1 are read (the request refuses others).
+                    let set = (set as usize).min(1);
+                    let uv = match uvs[set].take() {
                         Some(uv) => Some(uv),
-                        None => self.attribute(prim, Semantic::TexCoords(set), &[Type::Vec2], vertex_count).map_err(what)?,
+                        None => self.attribute(prim, Semantic::TexCoords(set as u32), &[Type::Vec2], vertex_count).map_err(what)?,
                     };
                     let corners = uv.as_ref().map(|uv| generated_tangents(&indices[..whole], &positions, normals.as_ref(), uv));
-                    uvs[set as usize] = uv.filter(|_| needs.uv[set as usize]);
+                    uvs[set] = uv.filter(|_| needs.uv[set]);
                     Some(corners.unwrap_or_default())
                 }
                 _ => None,
