@@ -17,8 +17,9 @@ units: W/(4π) per sr, sun W/m²); their radius and Soft Falloff, and a sun's
 angle, go in the request. Not carried, or not yet rendered
 by Glint: procedural textures and a Coat IOR other than 1.5 (the user
 is warned), other Principled inputs (sheen, subsurface, thin film), and
-World node setups other than a plain Background colour or an equirectangular Environment Texture (with at most a
-Mapping node's Z rotation), which the request carries.
+World node setups other than a plain Background colour or an
+equirectangular Environment Texture (with at most a Mapping node's Z
+rotation), which the request carries.
 
 Through the request: resolution × percentage, the Tangent node that feeds
 an anisotropic Principled BSDF's Tangent (Radial about X, Y or Z, or a UV
@@ -184,6 +185,18 @@ def hidden_from_camera(depsgraph):
     return sorted({i.object.name for i in depsgraph.object_instances if i.object.type not in {"LIGHT", "CAMERA", "EMPTY"} and not i.object.visible_camera})
 
 
+# Object › Visibility › Ray Visibility, but the camera's: each kind of ray
+# and the object's property for it.
+RAYS = (("shadow", "visible_shadow"), ("diffuse", "visible_diffuse"), ("glossy", "visible_glossy"),
+        ("transmission", "visible_transmission"), ("volume scatter", "visible_volume_scatter"))
+
+
+def rays_hidden_from(obj, kinds=None):
+    """The kinds of rays `obj` is hidden from, among `kinds` (every kind
+    of RAYS without)."""
+    return [name for name, key in RAYS if (kinds is None or name in kinds) and not getattr(obj, key, True)]
+
+
 def ray_visibility_left_out(depsgraph):
     """One warning per object other than a light that is hidden from
     shadow, diffuse, glossy, transmission or volume rays, which Glint does
@@ -193,7 +206,7 @@ def ray_visibility_left_out(depsgraph):
         obj = instance.object
         if obj.type == "LIGHT":
             continue
-        hidden = [name for name, key in (("shadow", "visible_shadow"), ("diffuse", "visible_diffuse"), ("glossy", "visible_glossy"), ("transmission", "visible_transmission"), ("volume scatter", "visible_volume_scatter")) if not getattr(obj, key, True)]
+        hidden = rays_hidden_from(obj)
         if hidden:
             warnings[obj.name] = f"{obj.name}: hidden from {', '.join(hidden)} rays, which Glint does not render (it sees the object with them)"
     return [warnings[name] for name in sorted(warnings)]
@@ -213,7 +226,7 @@ def light_settings_left_out(depsgraph):
         left_out = []
         if not getattr(light, "use_shadow", True):
             left_out.append("Cast Shadow off")
-        hidden = [name for name, key in (("diffuse", "visible_diffuse"), ("glossy", "visible_glossy"), ("transmission", "visible_transmission")) if not getattr(obj, key, True)]
+        hidden = rays_hidden_from(obj, ("diffuse", "glossy", "transmission"))
         if hidden:
             left_out.append(f"hidden from {', '.join(hidden)} rays")
         if left_out:

@@ -21,6 +21,7 @@
 
 use crate::accel::Accel;
 use crate::camera::Lens;
+use crate::material::Material;
 use crate::scene::Triangle;
 use crate::Vec3;
 use glam::Vec2;
@@ -132,21 +133,21 @@ impl<'a> CameraHits<'a> {
     ///
     /// `samples` per pixel are to be found with it: binning costs about
     /// as much per triangle as the BVH saves per ray, so it waits for
-    /// twice as many rays as triangles. `hidden[m]` (where it has an entry)
-    /// says material m is hidden from the camera: its triangles are not
-    /// binned, and camera rays pass them.
+    /// twice as many rays as triangles. The triangles of `materials`
+    /// hidden from the camera are not binned, and camera rays pass them;
+    /// a scene with none may give no materials.
     #[allow(clippy::too_many_arguments)]
-    pub fn new(accel: &Accel, triangles: &'a [Triangle], hidden: &[bool], lens: &Lens, width: u32, height: u32, tile: u32, samples: u32) -> Option<Self> {
+    pub fn new(accel: &Accel, triangles: &'a [Triangle], materials: &[Material], lens: &Lens, width: u32, height: u32, tile: u32, samples: u32) -> Option<Self> {
         let rays = width as f64 * height as f64 * samples as f64;
         if accel.triangle_count() as f64 * 2.0 > rays {
             return None;
         }
-        Self::within(accel, triangles, hidden, lens, width, height, tile, MAX_TESTS_PER_PIXEL)
+        Self::within(accel, triangles, materials, lens, width, height, tile, MAX_TESTS_PER_PIXEL)
     }
 
     /// Binned unless that makes more than `max_tests` tests per pixel.
     #[allow(clippy::too_many_arguments)]
-    fn within(accel: &Accel, triangles: &'a [Triangle], hidden: &[bool], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64) -> Option<Self> {
+    fn within(accel: &Accel, triangles: &'a [Triangle], materials: &[Material], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64) -> Option<Self> {
         // An orthographic camera's rays share a direction, not an origin,
         // and an aperture's rays leave from all over it.
         if width > u16::MAX as u32 || height > u16::MAX as u32 || !lens.pinhole() {
@@ -161,7 +162,7 @@ impl<'a> CameraHits<'a> {
             let (mut binned, mut tests) = (Vec::with_capacity(4 * room), 0.0);
             for (slot, triangle) in accel.slots(leaves) {
                 let t = &triangles[triangle as usize];
-                if hidden.get(t.material as usize).copied().unwrap_or(false) {
+                if materials.get(t.material as usize).is_some_and(|m| m.hidden_from_camera) {
                     continue;
                 }
                 if let Some(rect) = image_rect(lens, t.p().map(|p| p - origin), width, height) {

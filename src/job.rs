@@ -179,17 +179,15 @@ fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
 /// Load a scene (None: the embedded default) and apply the options and the
 /// request's extras. Errors are one line naming the file.
 pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExtras) -> Result<Job, String> {
+    let name = scene_file.map_or(crate::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     let tangents = extras.anisotropy_tangents.iter().map(|t| Ok((t.material.clone(), t.source()?))).collect::<Result<Vec<_>, String>>();
-    let file_name = || scene_file.map_or(crate::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
-    let anisotropy_tangents = tangents.map_err(|e| format!("{}: {e}", file_name()))?;
+    let anisotropy_tangents = tangents.map_err(|e| format!("{name}: {e}"))?;
     let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone(), hidden_from_camera: extras.hidden_from_camera.to_vec(), anisotropy_tangents };
-    let (mut scene, name) = match scene_file {
-        Some(path) => (loader::load_file(path, &load).map_err(|e| e.to_string())?, path.display().to_string()),
-        None => (
-            loader::load_bytes(crate::DEFAULT_SCENE.as_bytes(), None, crate::DEFAULT_SCENE_NAME, &load).map_err(|e| e.to_string())?,
-            crate::DEFAULT_SCENE_NAME.to_string(),
-        ),
-    };
+    let mut scene = match scene_file {
+        Some(path) => loader::load_file(path, &load),
+        None => loader::load_bytes(crate::DEFAULT_SCENE.as_bytes(), None, crate::DEFAULT_SCENE_NAME, &load),
+    }
+    .map_err(|e| e.to_string())?;
     if options.transparent_glass.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
         return Err(format!("{name}: transparent glass's roughness threshold must be finite and ≥ 0"));
     }
@@ -280,6 +278,21 @@ mod tests {
         let bad = [CoatTint { material: "red".into(), tint: [0.9, f32::NAN, 0.2] }];
         let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { coat_tints: &bad, ..SceneExtras::default() }).err().unwrap();
         assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+    }
+
+    /// A Tangent node in the request reaches its material; one naming no
+    /// source is one line naming the file.
+    #[test]
+    fn anisotropy_tangents_reach_their_materials_and_bad_ones_are_errors() {
+        use crate::material::{Axis, TangentSource};
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        let tangents = [AnisotropyTangent { material: "red".into(), radial_axis: Some(Axis::X), uv_map: None }];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { anisotropy_tangents: &tangents, ..SceneExtras::default() }).unwrap();
+        let source_of = |name: &str| job.scene.materials.iter().find(|m| m.name == name).unwrap().anisotropy_tangent;
+        assert_eq!((source_of("red"), source_of("white")), (TangentSource::Radial(Axis::X), TangentSource::default()));
+        let bad = [AnisotropyTangent { material: "red".into(), radial_axis: None, uv_map: None }];
+        let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { anisotropy_tangents: &bad, ..SceneExtras::default() }).err().unwrap();
+        assert!(err.starts_with(&format!("{}: ", path.display())) && err.contains("'red'") && !err.contains('\n'), "{err}");
     }
 
     /// Transparent Glass's roughness threshold is a roughness: a negative

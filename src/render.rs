@@ -6,6 +6,7 @@
 use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf, WithCoat, WithGlass};
 use crate::camera_hits::{CameraHits, FirstHit, TileRays};
 use crate::features::{FeatureMode, KernelBsdf};
+use crate::material::Material;
 use crate::integrator::{prepare_materials, radiance, Context, LightVertices, RayCounts};
 use crate::light_paths::PER_SAMPLE;
 use crate::light_tracing::LightTracing;
@@ -268,9 +269,10 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // Camera rays' first hits found without the BVH where that is
     // cheaper; a benchmark's ray log wants every ray through the BVH, and
     // surfaces with alpha are decided ray by ray.
-    // Materials camera rays pass, where there are any.
-    let hidden: Vec<bool> = if ctx.features.hidden_from_camera > 0 { ctx.scene.materials.iter().map(|m| m.hidden_from_camera).collect() } else { Vec::new() };
-    let bin_camera_rays = || (ctx.bin_camera_rays && ctx.ray_log.is_none() && ctx.features.alpha == 0).then(|| CameraHits::new(&ctx.accel, &ctx.scene.triangles, &hidden, &lens, w, h, TILE, samples.len() as u32)).flatten();
+    // The materials only where some are hidden from the camera: binning
+    // then leaves their triangles out.
+    let hiding: &[Material] = if ctx.features.hidden_from_camera > 0 { &ctx.scene.materials } else { &[] };
+    let bin_camera_rays = || (ctx.bin_camera_rays && ctx.ray_log.is_none() && ctx.features.alpha == 0).then(|| CameraHits::new(&ctx.accel, &ctx.scene.triangles, hiding, &lens, w, h, TILE, samples.len() as u32)).flatten();
     // The pass's sums, added to the film once it is complete. A film
     // without samples holds zeros: its own sums serve, and a cancel zeroes
     // them again (a 1-spp render spent 1% of its time on a second buffer).

@@ -948,7 +948,9 @@ fn panoramic_cameras_see_the_faces_around_them() {
     let (red, cyan, green, magenta, blue, yellow) = (faces[0].1, faces[1].1, faces[2].1, faces[3].1, faces[4].1, faces[5].1);
     let full = Panorama::Equirectangular { latitude: [-FRAC_PI_2, FRAC_PI_2], longitude: [-PI, PI] };
     let fisheye = Panorama::FisheyeEquidistant { fov: PI };
-    let cases: [(Panorama, &[((f32, f32), Vec3)]); 5] = [
+    // A panorama and the colours it sees at points (u, v) of the view.
+    type Case<'a> = (Panorama, &'a [((f32, f32), Vec3)]);
+    let cases: [Case; 5] = [
         // Forward (−Z) in the middle, right (+X) at three quarters, left at
         // one, behind at the edges, the ceiling along the top.
         (full, &[((0.5, 0.5), yellow), ((0.76, 0.5), red), ((0.24, 0.5), cyan), ((0.02, 0.5), blue), ((0.98, 0.5), blue), ((0.3, 0.97), green), ((0.6, 0.03), magenta)]),

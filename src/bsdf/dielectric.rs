@@ -113,14 +113,17 @@ impl Dielectric {
         Dielectric { specular_k: Some(specular_tint_k(r * r, tint)), ..self }
     }
 
-    /// Fresnel F at a microfacet as the two sides get it: reflected F_t and
-    /// refracted 1 − F_t, per channel.
+    /// Fresnel F at a microfacet as the two sides get it, per channel:
+    /// reflected F_t and refracted 1 − F_t (F and 1 − F untinted).
     #[inline]
-    fn tinted(&self, f: f32) -> Option<(Vec3, Vec3)> {
-        self.specular_k.map(|k| {
-            let reflected = ((Vec3::ONE + k) * f - k).clamp(Vec3::ZERO, Vec3::ONE);
-            (reflected, Vec3::ONE - reflected)
-        })
+    fn sides(&self, f: f32) -> (Vec3, Vec3) {
+        match self.specular_k {
+            None => (Vec3::splat(f), Vec3::splat(1.0 - f)),
+            Some(k) => {
+                let reflected = ((Vec3::ONE + k) * f - k).clamp(Vec3::ZERO, Vec3::ONE);
+                (reflected, Vec3::ONE - reflected)
+            }
+        }
     }
 
     /// The microfacet normal joining wo and wi, facing +z, with whether wi
@@ -148,17 +151,12 @@ impl Dielectric {
         let (wo_h, wi_h) = (wo.dot(h), wi.dot(h));
         let f = fresnel_dielectric(wo_h, self.eta);
         let dg = d(h, self.alpha) * g2(wo, upper(wi), self.alpha);
-        match (refracted, self.tinted(f)) {
-            (true, None) => {
-                let denom = self.eta * wi_h + wo_h;
-                self.tint * self.scale * (dg * (1.0 - f) * wi_h.abs() * wo_h / (wo.z * wi.z.abs() * denom * denom))
-            }
-            (false, None) => self.scale * (dg * f / (4.0 * wo.z * wi.z)),
-            (true, Some((_, through))) => {
-                let denom = self.eta * wi_h + wo_h;
-                self.tint * self.scale * (dg * through * wi_h.abs() * wo_h / (wo.z * wi.z.abs() * denom * denom))
-            }
-            (false, Some((reflected, _))) => self.scale * (dg * reflected / (4.0 * wo.z * wi.z)),
+        let (reflected, through) = self.sides(f);
+        if refracted {
+            let denom = self.eta * wi_h + wo_h;
+            self.tint * self.scale * (dg * through * wi_h.abs() * wo_h / (wo.z * wi.z.abs() * denom * denom))
+        } else {
+            self.scale * (dg * reflected / (4.0 * wo.z * wi.z))
         }
     }
 
@@ -185,20 +183,15 @@ impl Dielectric {
         let radiance = 1.0 / (self.eta * self.eta);
         if self.smooth {
             let f = fresnel_dielectric(wo.z, self.eta);
-            let tinted = self.tinted(f);
+            // Untinted, each side's share over its probability is 1 exactly.
+            let (reflected, through) = self.sides(f);
             if u_lobe < f {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some(match tinted {
-                    None => BsdfSample { wi, f: Vec3::splat(f), pdf: f, weight: Vec3::ONE, delta: true },
-                    Some((reflected, _)) => BsdfSample { wi, f: reflected, pdf: f, weight: reflected / f, delta: true },
-                });
+                return Some(BsdfSample { wi, f: reflected, pdf: f, weight: reflected / f, delta: true });
             }
             let wi = refract(wo, Vec3::Z, self.eta)?;
             let weight = self.tint * radiance;
-            return Some(match tinted {
-                None => BsdfSample { wi, f: weight * (1.0 - f), pdf: 1.0 - f, weight, delta: true },
-                Some((_, through)) => BsdfSample { wi, f: weight * through, pdf: 1.0 - f, weight: weight * through / (1.0 - f), delta: true },
-            });
+            return Some(BsdfSample { wi, f: weight * through, pdf: 1.0 - f, weight: weight * (through / (1.0 - f)), delta: true });
         }
         let h = sample_visible_normal(wo, self.alpha, u);
         let f = fresnel_dielectric(wo.dot(h), self.eta);

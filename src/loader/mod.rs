@@ -516,6 +516,12 @@ impl<'a> Builder<'a> {
         // A mirroring transform turns counter-clockwise into clockwise.
         let flip = linear.determinant() < 0.0;
         let radial = self.radial_tangents(mesh_index)?;
+        // Object-space tangents of anisotropy turn into the world as
+        // normals do, as Cycles' Tangent node turns them.
+        let turned = |v: Vec3| {
+            let w = normal_matrix * v;
+            if w.is_finite() { w } else { Vec3::ZERO }
+        };
         for (pi, prim) in mesh.primitives.iter().enumerate() {
             let what = |e: String| format!("mesh {mesh_index} primitive {pi}: {e}");
             match prim.mode {
@@ -563,11 +569,16 @@ impl<'a> Builder<'a> {
                     None => uvs[set].as_ref().map(|uv| generated_tangents(&indices[..whole], &positions, normals.as_ref(), uv)),
                 },
             };
-            // An anisotropic material's tangents, per corner, where a UV
-            // map gives them (Cycles' Tangent node, UV Map).
+            // An anisotropic material's tangents: per corner where a UV map
+            // gives them (Cycles' Tangent node, UV Map), else radial.
             let m = &self.materials[material as usize];
-            let uv_tangents: Option<Vec<[f32; 4]>> = match m.anisotropy_tangent {
-                TangentSource::UvMap(set) if m.anisotropy > 0.0 => {
+            let (source, anisotropic) = (m.anisotropy_tangent, m.anisotropy > 0.0);
+            let radial_axis = match source {
+                TangentSource::Radial(axis) if anisotropic => radial.map(|r| (r, axis)),
+                _ => None,
+            };
+            let uv_tangents: Option<Vec<[f32; 4]>> = match source {
+                TangentSource::UvMap(set) if anisotropic => {
                     // Sets 0 and 1 are read (the request refuses others).
                     let set = (set as usize).min(1);
                     let uv = match uvs[set].take() {
@@ -627,17 +638,10 @@ impl<'a> Builder<'a> {
                     })
                 });
                 push_column(&mut a.tangent, before, tangent, [Vec4::ZERO; 3]);
-                let m = &self.materials[material as usize];
-                // Object-space tangents turn into the world as normals do,
-                // as Cycles' Tangent node turns them.
-                let turned = |v: Vec3| {
-                    let w = normal_matrix * v;
-                    if w.is_finite() { w } else { Vec3::ZERO }
-                };
-                let field = match (&uv_tangents, m.anisotropy_tangent, radial.as_ref()) {
-                    (Some(t), _, _) => Some(corners.map(|c| t.get(c).map_or(Vec3::ZERO, |&[x, y, z, _]| turned(Vec3::new(x, y, z))))),
-                    (None, TangentSource::Radial(axis), Some(r)) if m.anisotropy > 0.0 => Some(order.map(|i| turned(r.at(Vec3::from(positions.get3(i)), axis)))),
-                    _ => None,
+                let field = match (&uv_tangents, radial_axis) {
+                    (Some(t), _) => Some(corners.map(|c| t.get(c).map_or(Vec3::ZERO, |&[x, y, z, _]| turned(Vec3::new(x, y, z))))),
+                    (None, Some((r, axis))) => Some(order.map(|i| turned(r.at(Vec3::from(positions.get3(i)), axis)))),
+                    (None, None) => None,
                 };
                 push_column(&mut a.anisotropy_tangent, before, field, [Vec3::ZERO; 3]);
             }
