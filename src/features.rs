@@ -65,6 +65,9 @@ pub struct Features {
     /// Area lights (lamp materials) and their triangles.
     pub lamps: usize,
     pub lamp_triangles: usize,
+    /// Area lights the camera sees (Object › Visibility › Camera, off by
+    /// default): camera rays test the lamps only where there is one.
+    pub lamps_seen_by_camera: usize,
     pub punctual: usize,
     /// Blender area lights marked Portal (portals.rs).
     pub portals: usize,
@@ -117,6 +120,7 @@ impl Features {
                 if m.lamp {
                     f.lamps += 1;
                     f.lamp_triangles += count;
+                    f.lamps_seen_by_camera += m.camera_sees_lamp as usize;
                 } else {
                     f.emitters += 1;
                     f.emitter_triangles += count;

@@ -100,9 +100,6 @@ pub struct Context<'a> {
     /// Lamps: seen by camera and BSDF rays for their emission only (empty
     /// without area lights, when a query costs one branch).
     pub lamps: Accel,
-    /// Whether the camera sees a lamp (Object › Visibility › Camera, off
-    /// for lights by default): camera rays test the lamps only then.
-    pub camera_sees_lamps: bool,
     pub lights: Lights,
     /// What the scene uses, which picks the kernel.
     pub features: Features,
@@ -124,8 +121,7 @@ impl<'a> Context<'a> {
         let (lamps, lamp_time) = Accel::build_subset(&scene.triangles, &lamps);
         let lights = Lights::new(scene);
         let features = Features::of(scene);
-        let camera_sees_lamps = scene.materials.iter().any(|m| m.camera_sees_lamp);
-        (Context { scene, accel, lamps, camera_sees_lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default() }, surface_time + lamp_time)
+        (Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default() }, surface_time + lamp_time)
     }
 
     /// The kernel these settings run on this scene.
@@ -1125,7 +1121,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // instructions. A camera ray tests none where the camera sees
         // none, as by Blender's default: that test (the lamps' BVH, for a
         // ray that could only pass them) was 2% of a 1-spp gold sphere's.
-        let lamp = if !LAMPS || (depth == 0 && !ctx.camera_sees_lamps) {
+        let lamp = if !LAMPS || (depth == 0 && ctx.features.lamps_seen_by_camera == 0) {
             None
         } else if skip > 0.0 {
             ctx.lamps.intersect_where(o, d, hit.map_or(reach, |h| h.t), |_, t, _, _| t >= skip)
