@@ -259,6 +259,25 @@ impl Tally {
     }
 }
 
+/// The mutation tests' sources: the eleven sample models and the default
+/// Cornell box, by name, as text.
+fn sample_sources() -> Vec<(String, String)> {
+    let dir = shared_dir().join("gltf-samples");
+    SAMPLES
+        .iter()
+        .map(|(name, _)| (name.to_string(), std::fs::read_to_string(dir.join(format!("{name}/{name}.gltf"))).unwrap_or_else(|e| panic!("{name}: {e}"))))
+        .chain([("cornell-box".to_string(), glint::DEFAULT_SCENE.to_string())])
+        .collect()
+}
+
+/// Write mutated file `json` to `path`, render it at `samples` samples
+/// (`render_guarded`) into `tally` under `what`, and remove it.
+fn render_mutated(tally: &mut Tally, path: &Path, json: &serde_json::Value, camera: Option<&str>, samples: u32, what: &str) {
+    std::fs::write(path, serde_json::to_string(json).unwrap()).unwrap();
+    tally.add(render_guarded(path, camera, None, samples), &[path], what);
+    std::fs::remove_file(path).unwrap();
+}
+
 /// Files that are plausible glTF but wrong in one to three places: the
 /// eleven sample models and the default Cornell box, each with numbers
 /// replaced by hostile numbers of their kind (or scaled by −1, 0.5, 2 or
@@ -273,12 +292,7 @@ impl Tally {
 /// (5,167 rendered) found no panic, hang or dropped non-finite sample.
 #[test]
 fn mutated_sample_models_load_or_fail_cleanly() {
-    let dir = shared_dir().join("gltf-samples");
-    let mut sources: Vec<(String, String)> = SAMPLES
-        .iter()
-        .map(|(name, _)| (name.to_string(), std::fs::read_to_string(dir.join(format!("{name}/{name}.gltf"))).unwrap_or_else(|e| panic!("{name}: {e}"))))
-        .collect();
-    sources.push(("cornell-box".into(), glint::DEFAULT_SCENE.to_string()));
+    let sources = sample_sources();
     let out_dir = std::env::temp_dir().join(format!("glint-mutations-{}", std::process::id()));
     std::fs::create_dir_all(&out_dir).unwrap();
     let hostile = hostile_values();
@@ -292,12 +306,9 @@ fn mutated_sample_models_load_or_fail_cleanly() {
         for _ in 0..1 + pick(3) {
             what.push(mutate(&mut json, "", &hostile, &mut pick));
         }
-        let path = out_dir.join(format!("{name}-{i}.gltf"));
-        std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
         // The file's own camera where it has one, every other time.
         let camera = if i % 2 == 1 && json.get("cameras").is_some() { None } else { Some("auto") };
-        tally.add(render_guarded(&path, camera, None, 1), &[&path], &format!("{name} {what:?}"));
-        std::fs::remove_file(&path).unwrap();
+        render_mutated(&mut tally, &out_dir.join(format!("{name}-{i}.gltf")), &json, camera, 1, &format!("{name} {what:?}"));
     }
     std::fs::remove_dir(&out_dir).unwrap();
     eprintln!("mutated sample models: {count} files, {} rendered, {} clean errors", tally.rendered, tally.refused);
@@ -329,13 +340,7 @@ fn hostile_words() -> Vec<[u8; 4]> {
 fn mutated_buffers_load_or_fail_cleanly() {
     use base64::Engine;
     const PREFIX: &str = "data:application/octet-stream;base64,";
-    let dir = shared_dir().join("gltf-samples");
-    let mut sources: Vec<(String, serde_json::Value)> = SAMPLES
-        .iter()
-        .map(|(name, _)| (name.to_string(), std::fs::read_to_string(dir.join(format!("{name}/{name}.gltf"))).unwrap_or_else(|e| panic!("{name}: {e}"))))
-        .chain([("cornell-box".to_string(), glint::DEFAULT_SCENE.to_string())])
-        .map(|(name, text)| (name, serde_json::from_str(&text).unwrap()))
-        .collect();
+    let mut sources: Vec<(String, serde_json::Value)> = sample_sources().into_iter().map(|(name, text)| (name, serde_json::from_str(&text).unwrap())).collect();
     // Only models whose buffers are embedded data: every source has them.
     sources.retain(|(_, json)| json["buffers"].as_array().is_some_and(|b| b.iter().any(|b| b["uri"].as_str().is_some_and(|u| u.starts_with(PREFIX)))));
     assert!(sources.len() >= 10, "the samples' buffers are no longer embedded");
@@ -367,11 +372,8 @@ fn mutated_buffers_load_or_fail_cleanly() {
             }
         }
         buffers[b]["uri"] = format!("{PREFIX}{}", engine.encode(&data)).into();
-        let path = out_dir.join(format!("{name}-buffer-{i}.gltf"));
-        std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
         let camera = if json.get("cameras").is_some() { None } else { Some("auto") };
-        tally.add(render_guarded(&path, camera, None, 2), &[&path], &format!("{name} buffer {b}: {what:?}"));
-        std::fs::remove_file(&path).unwrap();
+        render_mutated(&mut tally, &out_dir.join(format!("{name}-buffer-{i}.gltf")), &json, camera, 2, &format!("{name} buffer {b}: {what:?}"));
     }
     std::fs::remove_dir(&out_dir).unwrap();
     eprintln!("mutated buffers: {count} files, {} rendered, {} clean errors", tally.rendered, tally.refused);
