@@ -30,7 +30,8 @@ visibility is warned of, not rendered), the scene camera and what
 glTF cannot say of it (Shift X and Y, Depth of Field, a panoramic camera's
 type and settings), Film › Transparent (and
 Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, samples, bounces,
-time limit, seed, the World colour, every area light (glTF has none):
+time limit, Noise Threshold and Min Samples (adaptive sampling), seed, the
+World colour, every area light (glTF has none):
 shape, size, world transform, colour and power, and the sizes of the
 point, spot and sun lights. (The camera's Clip Start and End go through
 glTF as znear and zfar.)
@@ -306,6 +307,9 @@ def render_request(depsgraph, job, width, height):
         request["coat_tints"] = tints
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
+    if settings.use_adaptive_sampling:
+        request["noise_threshold"] = settings.adaptive_threshold
+        request["adaptive_min_samples"] = settings.adaptive_min_samples
     if settings.light_paths != "AUTO":
         request["light_paths"] = settings.light_paths == "ON"
     if scene.render.film_transparent:

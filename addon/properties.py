@@ -11,6 +11,27 @@ class GlintRenderSettings(bpy.types.PropertyGroup):
     time_limit: bpy.props.FloatProperty(
         name="Time Limit", description="Stop adding samples after this long (0: no limit)", default=0.0, min=0.0, subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE"
     )
+    use_adaptive_sampling: bpy.props.BoolProperty(
+        name="Noise Threshold",
+        description="Adaptive sampling, as Cycles': a pixel stops taking samples once its noise is below the threshold, "
+        "and Samples becomes the most a pixel takes",
+        default=False,
+    )
+    adaptive_threshold: bpy.props.FloatProperty(
+        name="Noise Threshold",
+        description="Noise level at which a pixel stops taking samples (as Cycles': typical values 0.1 to 0.001; lower is cleaner and slower)",
+        default=0.01,
+        min=0.0001,
+        max=1.0,
+        precision=4,
+    )
+    adaptive_min_samples: bpy.props.IntProperty(
+        name="Min Samples",
+        description="Samples every pixel takes before adaptive sampling stops any (0: from the threshold, as Cycles)",
+        default=0,
+        min=0,
+        max=1_000_000,
+    )
     seed: bpy.props.IntProperty(name="Seed", description="Random seed: the same seed gives the same image", default=0, min=0)
     bsdf: bpy.props.EnumProperty(
         name="BSDF",
@@ -54,7 +75,16 @@ class RENDER_PT_glint_sampling(bpy.types.Panel):
         layout.use_property_decorate = False
         settings = context.scene.glint
         col = layout.column()
-        col.prop(settings, "samples")
+        # Cycles' layout: the threshold's checkbox in its row's heading.
+        row = col.row(heading="Noise Threshold")
+        row.prop(settings, "use_adaptive_sampling", text="")
+        sub = row.row()
+        sub.active = settings.use_adaptive_sampling
+        sub.prop(settings, "adaptive_threshold", text="")
+        col.prop(settings, "samples", text="Max Samples" if settings.use_adaptive_sampling else "Samples")
+        sub = col.column()
+        sub.active = settings.use_adaptive_sampling
+        sub.prop(settings, "adaptive_min_samples")
         col.prop(settings, "time_limit")
         col.prop(settings, "max_bounces")
         col.prop(settings, "seed")

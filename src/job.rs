@@ -3,6 +3,7 @@
 //! everything the renderer needs. Shared by `glint render` and `glint watch`.
 
 use crate::environment::EnvironmentMap;
+use crate::adaptive::Adaptive;
 use crate::bsdf::BsdfModel;
 use crate::features::FeatureMode;
 use crate::lamps::AreaLight;
@@ -26,6 +27,10 @@ pub struct JobOptions {
     pub height: Option<u32>,
     pub samples: Option<u32>,
     pub time_limit: Option<f64>,
+    /// Adaptive sampling's Noise Threshold; 0 or none: off.
+    pub noise_threshold: Option<f32>,
+    /// Its Min Samples; 0 or none: from the threshold.
+    pub adaptive_min_samples: Option<u32>,
     pub max_depth: Option<u32>,
     pub seed: Option<u64>,
     pub mis: Option<bool>,
@@ -56,6 +61,8 @@ impl JobOptions {
             height: self.height.or(f.height),
             samples: self.samples.or(f.samples),
             time_limit: self.time_limit.or(f.time_limit),
+            noise_threshold: self.noise_threshold.or(f.noise_threshold),
+            adaptive_min_samples: self.adaptive_min_samples.or(f.adaptive_min_samples),
             max_depth: self.max_depth.or(f.max_depth),
             seed: self.seed.or(f.seed),
             mis: self.mis.or(f.mis),
@@ -81,6 +88,8 @@ impl From<&RenderRequest> for JobOptions {
             height: r.height,
             samples: r.samples,
             time_limit: r.time_limit,
+            noise_threshold: r.noise_threshold,
+            adaptive_min_samples: r.adaptive_min_samples,
             max_depth: r.max_depth,
             seed: r.seed,
             mis: r.mis,
@@ -258,8 +267,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         strategies: Default::default(),
         transparent: options.transparent.unwrap_or(false),
         transparent_glass: options.transparent_glass,
+        adaptive: options.noise_threshold.filter(|t| *t > 0.0).map(|threshold| Adaptive { threshold, min_samples: options.adaptive_min_samples.unwrap_or(0) }),
     };
-    Ok(Job { scene, settings, budget: Budget { samples, time } })
+    Ok(Job { scene, settings, budget: Budget { samples, time, paced: true } })
 }
 
 #[cfg(test)]

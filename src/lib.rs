@@ -5,6 +5,7 @@
 // through, and `partial_cmp` says the same at twice the length.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod accel;
+pub mod adaptive;
 pub mod affinity;
 pub mod bsdf;
 pub mod bvh_collapse;

@@ -223,7 +223,8 @@ impl LightVertices {
     /// each, traced in parallel; with `tracing`, each sample index traces
     /// its n_T subpaths (the first `count` of them also keep their
     /// vertices) and their vertices seen by the camera (light_tracing.rs)
-    /// are returned too, in an order fixed by the samples alone.
+    /// are returned too, by sample index, in an order fixed by the samples
+    /// alone.
     #[allow(clippy::too_many_arguments)]
     pub fn for_samples<B: Bsdf>(
         ctx: &Context,
@@ -234,7 +235,7 @@ impl LightVertices {
         count: u32,
         max_depth: u32,
         mis_scale: f32,
-    ) -> (Vec<Self>, Vec<Splat>, RayCounts) {
+    ) -> (Vec<Self>, Vec<Vec<Splat>>, RayCounts) {
         let max_vertex_depth = max_depth.saturating_sub(1);
         let subpaths = tracing.map_or(count, |t| count.max(t.subpaths as u32));
         let tasks: Vec<(u32, u32)> = samples.clone().flat_map(|s| (0..subpaths.div_ceil(BLOCK)).map(move |b| (s, b * BLOCK))).collect();
@@ -259,11 +260,11 @@ impl LightVertices {
         let mut out: Vec<Self> = samples
             .map(|_| LightVertices { vertices: Vec::new(), traced: count, mis_scale, max_vertex_depth, tracing: tracing.map_or(0.0, |t| t.subpaths) })
             .collect();
-        let (mut splats, mut rays) = (Vec::new(), RayCounts::default());
+        let (mut splats, mut rays) = (vec![Vec::new(); out.len()], RayCounts::default());
         let blocks = subpaths.div_ceil(BLOCK).max(1) as usize;
         for (i, (vertices, s, r)) in traced.into_iter().enumerate() {
             out[i / blocks].vertices.extend(vertices);
-            splats.extend(s);
+            splats[i / blocks].extend(s);
             rays.add(&r);
         }
         (out, splats, rays)

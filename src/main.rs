@@ -8,7 +8,7 @@ use glint::integrator::Context;
 use glint::job::{self, Job, JobOptions};
 use glint::loader;
 use glint::output;
-use glint::progressive::render_progressive;
+use glint::progressive::{render_progressive, Budget};
 use glint::render::{render_pass, Film, LightPaths, PassStats};
 use glint::request::EnvironmentRequest;
 use glint::request::RenderRequest;
@@ -51,6 +51,12 @@ struct RenderOptions {
     /// Stop starting new samples after this many seconds of rendering.
     #[arg(long, value_parser = parse_seconds)]
     time_limit: Option<f64>,
+    /// Adaptive sampling, as Blender's Noise Threshold: a pixel stops taking samples once its noise is below this (Cycles' default 0.01; typical 0.1 to 0.001); the sample count is then the most a pixel takes [default: off]
+    #[arg(long, value_parser = parse_threshold)]
+    noise_threshold: Option<f32>,
+    /// Adaptive sampling's Min Samples: every pixel takes these before the first check [default: from the threshold, as Cycles: 0.1 → 32, 0.01 → 64, 0.001 → 128]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    min_samples: Option<u32>,
     /// Image width in pixels [default: 512].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=32768))]
     width: Option<u32>,
@@ -131,6 +137,8 @@ impl RenderOptions {
             height: self.height,
             samples: self.spp,
             time_limit: self.time_limit,
+            noise_threshold: self.noise_threshold,
+            adaptive_min_samples: self.min_samples,
             max_depth: self.max_depth,
             seed: self.seed,
             mis: self.mis.as_deref().map(|m| m == "on"),
@@ -154,6 +162,13 @@ impl RenderOptions {
             transparent: self.transparent_film.then_some(true),
             transparent_glass: self.transparent_glass,
         }
+    }
+}
+
+fn parse_threshold(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
+        _ => Err(format!("'{s}' is not a noise threshold > 0")),
     }
 }
 
@@ -299,11 +314,13 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     // A fixed sample count renders in one pass: the per-pixel sums are then
     // grouped the same way however fast the kernel is, so the image depends
-    // on the settings alone, bit for bit (a time limit needs passes).
+    // on the settings alone, bit for bit (a time limit needs passes; so
+    // does adaptive sampling, whose passes end where it checks, whatever
+    // the speed).
     let render_once = |film: &mut Film| {
         pool.install(|| match budget.time {
-            None => render_pass(&ctx, &settings, film, 0..budget.samples, &cancel, &on_progress),
-            Some(_) => render_progressive(&ctx, &settings, &budget, film, &cancel, &on_progress, &mut |_| {}),
+            None if settings.adaptive.is_none() => render_pass(&ctx, &settings, film, 0..budget.samples, &cancel, &on_progress),
+            time => render_progressive(&ctx, &settings, &Budget { paced: time.is_some(), ..budget }, film, &cancel, &on_progress, &mut |_| {}),
         })
     };
     // `--repeat`: the earlier renders' seconds per sample; the last one's
@@ -327,6 +344,10 @@ fn render(args: RenderArgs) -> Result<()> {
 
     let mrays = stats.rays.total() as f64 / seconds / 1e6;
     glint::stderr_line!("{width}x{height}, {} spp, {seconds:.3} s, {mrays:.1} Mrays/s -> {}", film.samples, args.output.display());
+    if let Some(c) = &film.convergence {
+        let stopped = c.active.iter().filter(|a| !**a).count() as f64 / c.active.len().max(1) as f64;
+        glint::stderr_line!("adaptive sampling: {:.1} samples a pixel on average, {:.0}% of the pixels converged", film.mean_samples(), stopped * 100.0);
+    }
     if stats.discarded > 0 {
         glint::stderr_line!("warning: {} sample(s) were NaN, infinite or above {:e} W·sr⁻¹·m⁻² and were discarded", stats.discarded, glint::render::MAX_SAMPLE);
     }

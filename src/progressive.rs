@@ -15,6 +15,10 @@ pub struct Budget {
     pub samples: u32,
     /// Rendering time after which no further pass starts.
     pub time: Option<Duration>,
+    /// Passes sized by their time, for a client that shows each image or a
+    /// time limit; else as few as the budget and adaptive sampling's checks
+    /// allow, so that the image depends on the settings alone.
+    pub paced: bool,
 }
 
 /// Where a progressive render is: handed to the caller after every pass.
@@ -47,21 +51,32 @@ pub fn render_progressive(
         let per_sample = if done > 0 { elapsed.as_secs_f64() / done as f64 } else { 0.0 };
         // Double while a pass stays under the target time; never past the
         // budget or the time left.
-        let mut pass = done.max(1);
-        if per_sample > 0.0 {
+        let mut pass = if budget.paced { done.max(1) } else { target - done };
+        if budget.paced && per_sample > 0.0 {
             pass = pass.min(((PASS_TARGET.as_secs_f64() / per_sample) as u32).max(1));
             if let Some(limit) = budget.time {
                 let left = limit.saturating_sub(elapsed).as_secs_f64();
                 pass = pass.min(((left / per_sample) as u32).max(1));
             }
         }
+        // Adaptive sampling checks the pixels at fixed sample counts
+        // (adaptive.rs), where a pass ends.
+        if let Some(adaptive) = &settings.adaptive {
+            pass = pass.min(adaptive.next_check(done) - done);
+        }
         pass = pass.min(target - done);
         let stats = render_pass(ctx, settings, film, done..done + pass, cancel, progress)?;
         total.add(&stats);
         done += pass;
+        let mut converged = false;
+        if let (Some(adaptive), Some(convergence)) = (&settings.adaptive, film.convergence.as_mut()) {
+            if adaptive.checks_at(done) {
+                converged = convergence.check(&film.sum, film.width, film.height, adaptive.threshold) == 0;
+            }
+        }
         let elapsed = start.elapsed();
         let out_of_time = budget.time.is_some_and(|t| elapsed >= t);
-        let finished = done >= target || out_of_time;
+        let finished = done >= target || out_of_time || converged;
         after_pass(Progress { film, elapsed, stats: &total, finished });
         if finished {
             break;
@@ -82,7 +97,7 @@ mod tests {
     }
 
     fn settings(spp: u32) -> RenderSettings {
-        RenderSettings { width: 24, height: 24, spp, max_depth: 4, seed: 3, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, strategies: Default::default(), transparent: false, transparent_glass: None }
+        RenderSettings { width: 24, height: 24, spp, max_depth: 4, seed: 3, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, strategies: Default::default(), transparent: false, transparent_glass: None, adaptive: None }
     }
 
     #[test]
@@ -91,7 +106,7 @@ mod tests {
         let (ctx, _) = Context::new(&scene);
         let mut passes = Vec::new();
         let mut film = Film::new(24, 24);
-        let budget = Budget { samples: 13, time: None };
+        let budget = Budget { samples: 13, time: None, paced: true };
         render_progressive(&ctx, &settings(13), &budget, &mut film, &AtomicBool::new(false), &|_| {}, &mut |p| passes.push((p.film.samples, p.finished)))
             .unwrap();
         assert_eq!(passes.last(), Some(&(13, true)));
@@ -108,7 +123,7 @@ mod tests {
         let scene = cornell();
         let (ctx, _) = Context::new(&scene);
         let mut film = Film::new(24, 24);
-        let budget = Budget { samples: 0, time: Some(Duration::from_millis(200)) };
+        let budget = Budget { samples: 0, time: Some(Duration::from_millis(200)), paced: true };
         let start = Instant::now();
         render_progressive(&ctx, &settings(0), &budget, &mut film, &AtomicBool::new(false), &|_| {}, &mut |_| {}).unwrap();
         assert!(film.samples > 1);
@@ -116,7 +131,7 @@ mod tests {
 
         let cancel = AtomicBool::new(false);
         let mut film = Film::new(24, 24);
-        let budget = Budget { samples: 1000, time: None };
+        let budget = Budget { samples: 1000, time: None, paced: true };
         let r = render_progressive(&ctx, &settings(1000), &budget, &mut film, &cancel, &|_| {}, &mut |p| {
             if p.film.samples >= 2 {
                 cancel.store(true, Ordering::Relaxed);

@@ -11,7 +11,8 @@ use crate::integrator::{prepare_materials, radiance, Context, LightVertices, Ray
 use crate::light_paths::PER_SAMPLE;
 use crate::light_tracing::LightTracing;
 use crate::strategies::Strategies;
-use crate::rng::{Rng, Sampler};
+use crate::adaptive::{Adaptive, Convergence};
+use crate::rng::{in_first_half, Rng, Sampler};
 use glam::Vec2;
 use crate::Vec3;
 use rayon::prelude::*;
@@ -82,6 +83,9 @@ pub struct RenderSettings {
     /// Film › Transparent Glass (with `transparent`): the World seen
     /// through glass of roughness up to this is transparency too.
     pub transparent_glass: Option<f32>,
+    /// Adaptive sampling (adaptive.rs): Noise Threshold and Min Samples;
+    /// None, every pixel takes every sample.
+    pub adaptive: Option<Adaptive>,
 }
 
 /// Whether light subpaths are traced (light_paths.rs).
@@ -104,31 +108,54 @@ pub struct Film {
     /// surface, 0 where it left the scene), kept only for a transparent
     /// film (`RenderSettings::transparent`); empty otherwise.
     pub coverage: Vec<f32>,
+    /// Sample indices rendered: every pixel's samples, but with adaptive
+    /// sampling, where a pixel has `convergence.counts` of them.
     pub samples: u32,
+    /// With adaptive sampling (`RenderSettings::adaptive`), what decides
+    /// which pixels take more samples; made by the first pass.
+    pub convergence: Option<Convergence>,
 }
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
-        Film { width, height, sum: crate::memory::zeroed_vec3s(width as usize * height as usize), coverage: Vec::new(), samples: 0 }
+        Film { width, height, sum: crate::memory::zeroed_vec3s(width as usize * height as usize), coverage: Vec::new(), samples: 0, convergence: None }
     }
 
     /// The per-pixel mean: the Monte Carlo estimate.
     pub fn mean(&self) -> Vec<Vec3> {
-        let inv = self.inverse_samples();
-        self.sum.iter().map(|s| *s * inv).collect()
+        match &self.convergence {
+            Some(c) => self.sum.iter().zip(&c.counts).map(|(s, &n)| *s * inverse(n)).collect(),
+            None => {
+                let inv = inverse(self.samples);
+                self.sum.iter().map(|s| *s * inv).collect()
+            }
+        }
     }
 
     /// The per-pixel alpha of a transparent film (its mean coverage; the
     /// colour is premultiplied by it, as Cycles writes it), None for an
     /// opaque one.
     pub fn alpha(&self) -> Option<Vec<f32>> {
-        let inv = self.inverse_samples();
-        (!self.coverage.is_empty()).then(|| self.coverage.iter().map(|c| c * inv).collect())
+        if self.coverage.is_empty() {
+            return None;
+        }
+        Some(match &self.convergence {
+            Some(c) => self.coverage.iter().zip(&c.counts).map(|(a, &n)| a * inverse(n)).collect(),
+            None => self.coverage.iter().map(|a| a * inverse(self.samples)).collect(),
+        })
     }
 
-    fn inverse_samples(&self) -> f32 {
-        if self.samples > 0 { 1.0 / self.samples as f32 } else { 0.0 }
+    /// Mean samples per pixel: `samples`, but with adaptive sampling.
+    pub fn mean_samples(&self) -> f64 {
+        match &self.convergence {
+            Some(c) => c.total_samples() as f64 / self.sum.len().max(1) as f64,
+            None => self.samples as f64,
+        }
     }
+}
+
+fn inverse(samples: u32) -> f32 {
+    if samples > 0 { 1.0 / samples as f32 } else { 0.0 }
 }
 
 /// The largest sample (per channel, W·sr⁻¹·m⁻²) a pixel's sum takes.
@@ -253,14 +280,22 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // Light subpaths (light_paths.rs) where there are emitters to start
     // them and MIS to weigh their connections; traced for a few sample
     // indices at a time, which bounds their memory.
-    let per_sample = (w * h / 16).clamp(256, PER_SAMPLE);
+    // With adaptive sampling, their numbers scale with the share of the
+    // pixels still sampling: what a stopped pixel would have used is lost
+    // (a splat on it, a vertex only it would join), and each sample
+    // index's counts are its own (its camera paths' weights count the
+    // same n_T and vertices).
+    let (still, all) = film.convergence.as_ref().map_or((1, 1), |c| (c.active.iter().filter(|a| **a).count() as u64, c.active.len().max(1) as u64));
+    let share = |n: u32, least: u32| ((n as u64 * still).div_ceil(all) as u32).max(least.min(n));
+    let per_sample = share((w * h / 16).clamp(256, PER_SAMPLE), 64);
     let connect = AREA && ctx.traces_light_paths(settings);
     let chunk = if connect { SAMPLES_PER_LIGHT_TRACE } else { samples.len().max(1) as u32 };
     let mut total = PassStats::default();
     // Light tracing (light_tracing.rs): subpaths per sample index that
     // reach the camera, n_T.
     // Not every camera can be joined to a point (`Lens::joinable`).
-    let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then(|| LightTracing { lens: &lens, subpaths: traced_per_sample(w, h) as f32, mis_scale, strategies: settings.strategies });
+    let traced = share(traced_per_sample(w, h), 1);
+    let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then_some(LightTracing { lens: &lens, subpaths: traced as f32, mis_scale, strategies: settings.strategies });
     let trace_lights = |range: Range<u32>, mis_scale: f32| {
         let started = Instant::now();
         let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, per_sample, settings.max_depth, mis_scale);
@@ -281,6 +316,16 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // A transparent film's coverage, beside the sums; nothing otherwise.
     let pixels = (w * h) as usize;
     let mut pass_coverage = if settings.transparent { vec![0.0f32; pixels] } else { Vec::new() };
+    // Adaptive sampling: which pixels take this pass's samples, and the
+    // sums and counts of those in the first half (adaptive.rs); the film's
+    // state comes back to it when the pass is done or cancelled. (A film
+    // with samples from settings without it counts them for every pixel:
+    // its means stay right, its pixels stop later, the halves of those
+    // samples unknown.)
+    let convergence = settings.adaptive.map(|_| film.convergence.take().unwrap_or_else(|| Convergence::new(pixels, film.samples)));
+    let active = convergence.as_ref().map(|c| &c.active[..]);
+    let mut pass_half = if convergence.is_some() { crate::memory::zeroed_vec3s(pixels) } else { Vec::new() };
+    let mut pass_in_half = if convergence.is_some() { vec![0u32; pixels] } else { Vec::new() };
     // The bins, and the sums' pages mapped, beside the connections' MIS
     // scale and the first light subpaths, which need neither: each of
     // these has a serial part that left the other thread idle (a 1-spp
@@ -313,8 +358,21 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
             };
             let merge_started = Instant::now();
             total.rays.add(&rays);
-            for splat in splats {
-                pass_sum[splat.pixel as usize] += splat.value;
+            // A stopped pixel takes no sample index's light either.
+            for (k, splats) in splats.into_iter().enumerate() {
+                let s = (range.start + k as u32) as u64;
+                for splat in splats {
+                    let p = splat.pixel as usize;
+                    if let Some(active) = active {
+                        if !active[p] {
+                            continue;
+                        }
+                        if in_first_half(sampler, settings.seed, p as u64, s) {
+                            pass_half[p] += splat.value;
+                        }
+                    }
+                    pass_sum[p] += splat.value;
+                }
             }
             total.phases.light_subpaths += took + merge_started.elapsed();
             Some(vertices)
@@ -328,9 +386,11 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         // threads, and no serial merge follows the tiles.
         let bands: Vec<Mutex<&mut [Vec3]>> = pass_sum.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
         let coverage_bands: Vec<Mutex<&mut [f32]>> = pass_coverage.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
+        let half_bands: Vec<Mutex<&mut [Vec3]>> = pass_half.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
+        let in_half_bands: Vec<Mutex<&mut [u32]>> = pass_in_half.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
         let results: Vec<Option<PassStats>> = tiles
             .par_iter()
-            .map_init(|| (TileRays::new(TILE), Vec::with_capacity((TILE * TILE) as usize)), |(rays, rngs), &(x0, y0)| {
+            .map_init(|| (TileRays::new(TILE), Vec::with_capacity((TILE * TILE) as usize), Vec::new(), Vec::new()), |(rays, rngs, halves, in_half), &(x0, y0)| {
                 if cancel.load(Ordering::Relaxed) {
                     return None;
                 }
@@ -339,13 +399,30 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
                 let mut covered = [0.0f32; (TILE * TILE) as usize];
                 let tw = (x1 - x0) as usize;
+                let tile_pixels = (tw as u32 * (y1 - y0)) as usize;
+                // Adaptive sampling: whether the tile's pixels take samples.
+                let sampled = |i: usize| active.is_none_or(|a| a[((y0 + (i / tw) as u32) * w + x0 + (i % tw) as u32) as usize]);
+                let sampling = if active.is_some() { (0..tile_pixels).filter(|&i| sampled(i)).count() } else { tile_pixels };
+                if sampling == 0 {
+                    return Some(stats);
+                }
+                // The first half's sums and counts (adaptive.rs).
+                if active.is_some() {
+                    halves.clear();
+                    halves.resize(tile_pixels, Vec3::ZERO);
+                    in_half.clear();
+                    in_half.resize(tile_pixels, 0u32);
+                }
+                // A tile most of whose pixels have stopped traces its few
+                // camera rays through the BVH: binning costs per pixel of
+                // the tile, sampled or not.
+                let binned = camera_hits.as_ref().filter(|_| sampling * 2 >= tile_pixels);
                 // Sample index by sample index over the tile: the light
                 // vertices a sample index's connections pick from at random
                 // (light_paths.rs) stay in cache for the whole tile, where
                 // going through a pixel's samples first had every pick read
                 // from a different sample index's set. Each pixel's sum
                 // adds its samples in the same order either way.
-                let tile_pixels = (tw as u32 * (y1 - y0)) as usize;
                 for s in range.clone() {
                     let vertices = light_vertices.as_ref().map(|v| &v[(s - range.start) as usize]);
                     // The tile's camera rays first: their numbers are
@@ -354,24 +431,33 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     // where camera_hits.rs finds them.
                     rngs.clear();
                     for i in 0..tile_pixels as u32 {
+                        if active.is_some() && !sampled(i as usize) {
+                            continue;
+                        }
                         let (x, y) = (x0 + i % tw as u32, y0 + i / tw as u32);
                         let mut rng = Rng::for_pixel_sample(sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
                         let jitter = rng.next_2d();
                         let aperture = if lens.has_aperture() { rng.next_2d() } else { Vec2::ZERO };
                         let ray = lens.ray(Vec2::new(x as f32, y as f32) + jitter, aperture);
                         rays.set(i as usize, ray.map_or(Vec3::ZERO, |r| r.dir));
-                        rngs.push((rng, ray));
+                        let first_half = active.is_some() && in_first_half(sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
+                        rngs.push((i as usize, rng, ray, first_half));
                     }
-                    if let Some(hits) = &camera_hits {
+                    if let Some(hits) = binned {
                         if s == range.start {
                             hits.face(x0, y0, tw as u32, y1 - y0, rays);
                         }
                         hits.nearest(tw as u32, y1 - y0, rays);
                     }
-                    for (i, ((sum, covered), (rng, ray))) in sums[..tile_pixels].iter_mut().zip(covered.iter_mut()).zip(rngs.iter_mut()).enumerate() {
+                    for (i, rng, ray, first_half) in rngs.iter_mut() {
+                        let i = *i;
+                        let (sum, covered) = (&mut sums[i], &mut covered[i]);
+                        if *first_half {
+                            in_half[i] += 1;
+                        }
                         let (l, coverage) = match ray {
                             Some(ray) => {
-                                let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
+                                let first = binned.map_or(FirstHit::Trace, |_| rays.first(i));
                                 radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first)
                             }
                             // Outside a fisheye's circle: black and opaque,
@@ -380,6 +466,9 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         };
                         if sample_fits(l) {
                             *sum += l;
+                            if *first_half {
+                                halves[i] += l;
+                            }
                         } else {
                             stats.discarded += 1;
                         }
@@ -391,18 +480,27 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 if let Some(band) = coverage_bands.get(band) {
                     add_tile(band, &covered[..tile_pixels], tw, x0, w);
                 }
-                progress(tw as u64 * (y1 - y0) as u64 * range.len() as u64);
+                if let Some(band) = half_bands.get(band) {
+                    add_tile(band, halves, tw, x0, w);
+                }
+                if let Some(band) = in_half_bands.get(band) {
+                    add_tile(band, in_half, tw, x0, w);
+                }
+                progress(sampling as u64 * range.len() as u64);
                 Some(stats)
             })
             .collect();
         total.phases.camera_paths += tiles_started.elapsed();
         drop(bands);
         drop(coverage_bands);
+        drop(half_bands);
+        drop(in_half_bands);
         if cancel.load(Ordering::Relaxed) || results.iter().any(Option::is_none) {
             if empty {
                 pass_sum.fill(Vec3::ZERO);
                 film.sum = pass_sum;
             }
+            film.convergence = convergence;
             return Err(Cancelled);
         }
         for stats in results.into_iter().flatten() {
@@ -413,6 +511,14 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // back whole; so does a first pass's coverage.
     add_pass(&mut film.sum, pass_sum);
     add_pass(&mut film.coverage, pass_coverage);
+    if let Some(mut c) = convergence {
+        add_pass(&mut c.half, pass_half);
+        add_pass(&mut c.in_half, pass_in_half);
+        for (count, _) in c.counts.iter_mut().zip(&c.active).filter(|(_, a)| **a) {
+            *count += samples.len() as u32;
+        }
+        film.convergence = Some(c);
+    }
     film.samples += samples.len() as u32;
     Ok(total)
 }

@@ -6,7 +6,8 @@
 //!
 //! ```json
 //! { "job": "render-3", "width": 640, "height": 360, "samples": 128,
-//!   "time_limit": 0, "max_depth": 13, "camera": "Camera", "seed": 0,
+//!   "time_limit": 0, "noise_threshold": 0.01, "adaptive_min_samples": 0,
+//!   "max_depth": 13, "camera": "Camera", "seed": 0,
 //!   "light_paths": true,
 //!   "output": "render.exr", "background": [0.05, 0.05, 0.05],
 //!   "area_lights": [ { "name": "Area", "shape": "RECTANGLE",
@@ -53,6 +54,11 @@ pub struct RenderRequest {
     pub samples: Option<u32>,
     /// Seconds of rendering (not counting load and BVH build); 0: none.
     pub time_limit: Option<f64>,
+    /// Adaptive sampling's Noise Threshold (Blender's Render › Sampling);
+    /// 0: off.
+    pub noise_threshold: Option<f32>,
+    /// Its Min Samples; 0: from the threshold, as Cycles.
+    pub adaptive_min_samples: Option<u32>,
     /// Most scattering events on a path (Cycles' max bounces + 1).
     pub max_depth: Option<u32>,
     /// Camera by node or camera name.
@@ -220,6 +226,9 @@ impl RenderRequest {
         if self.time_limit.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
             return Err("time_limit must be a number of seconds ≥ 0".into());
         }
+        if self.noise_threshold.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
+            return Err("noise_threshold must be a number ≥ 0".into());
+        }
         if self.samples == Some(0) && self.time_limit.unwrap_or(0.0) == 0.0 {
             return Err("samples 0 (unlimited) needs a time_limit".into());
         }
@@ -261,6 +270,7 @@ mod tests {
             (br#"{"samples": 0}"#, "time_limit"),
             (br#"{"background": [1, 1]}"#, "length 3"),
             (br#"{"time_limit": -1}"#, "time_limit"),
+            (br#"{"noise_threshold": -0.01}"#, "noise_threshold"),
             (br#"{"area_lights": [{"shape": "STAR", "size": [1,1], "matrix": [], "color": [1,1,1], "power": 1}]}"#, "STAR"),
             (br#"{"width": 64"#, "EOF"),
             (br#"{"default_surface": [2, 0, 0]}"#, "default_surface"),

@@ -84,7 +84,7 @@ impl SobolSets {
     #[inline]
     fn next_point(&mut self, third: bool) -> (u32, u32, u32) {
         self.set += 1;
-        let h = mix64(self.key ^ self.set.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let h = set_hash(self.key, self.set);
         let (s_index, s0, s1) = (h as u32, (h >> 32) as u32, (h.wrapping_mul(0xD1B5_4A32_D192_ED03) >> 32) as u32);
         // The shuffled index i', reversed.
         let shuffled_reversed = laine_karras(self.reversed_index, s_index);
@@ -93,6 +93,45 @@ impl SobolSets {
         let x1 = laine_karras(sobol_1_reversed(shuffled_reversed), s1).reverse_bits();
         let x2 = if third { laine_karras(sobol_2_reversed(shuffled_reversed), mix64(h) as u32).reverse_bits() } else { 0 };
         (x0, x1, x2)
+    }
+}
+
+/// The hash a pixel sample's Sobol set (1, 2, …) draws its shuffle and
+/// scrambles from.
+#[inline]
+fn set_hash(key: u64, set: u64) -> u64 {
+    mix64(key ^ set.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+}
+
+/// The Sobol sets' key of a pixel sample: a hash of (seed, pixel, index /
+/// 2^32).
+#[inline]
+fn sobol_key(seed: u64, pixel: u64, sample: u64) -> u64 {
+    mix64(mix64(seed ^ mix64(pixel)) ^ (sample >> 32))
+}
+
+/// Which of a pixel's two halves of samples a sample is in, for adaptive
+/// sampling's two estimates (adaptive.rs): each half must be spread over
+/// the pixel as the whole is. Odd and even indices are not, here: the
+/// index's lowest bit is the pixel jitter's highest, so one half's points
+/// would all lie on one side of the pixel, and at an edge the two
+/// estimates would differ for ever. Here the parity of bits 0, 1 and 4 of
+/// the jitter's shuffled index: a linear form of the index that no cell of
+/// a (0, 6, 2)-net holds constant, so that of each 64 samples (an aligned
+/// block, which the shuffle permutes) either half has 32, two in each
+/// cell of every split into 16 (tests); the form Cycles uses for its
+/// progressive multi-jittered samples, the odd bits' parity, left half
+/// of the rows empty here. Within smaller blocks the halves need
+/// not be equal: the error weighs each by its count. Independent samples
+/// split by parity.
+pub fn in_first_half(sampler: Sampler, seed: u64, pixel: u64, sample: u64) -> bool {
+    match sampler {
+        Sampler::Random => sample.is_multiple_of(2),
+        Sampler::Sobol => {
+            let shuffle = set_hash(sobol_key(seed, pixel, sample), 1) as u32;
+            let shuffled = laine_karras((sample as u32).reverse_bits(), shuffle).reverse_bits();
+            (shuffled & 0x13).count_ones().is_multiple_of(2)
+        }
     }
 }
 
@@ -193,8 +232,7 @@ impl Rng {
             Sampler::Random => Rng::for_sample(seed, pixel, sample),
             Sampler::Sobol => {
                 let mut rng = Rng::for_sample(seed, pixel, sample);
-                let key = mix64(mix64(seed ^ mix64(pixel)) ^ (sample >> 32));
-                rng.sobol = Some(SobolSets { reversed_index: (sample as u32).reverse_bits(), key, set: 0 });
+                rng.sobol = Some(SobolSets { reversed_index: (sample as u32).reverse_bits(), key: sobol_key(seed, pixel, sample), set: 0 });
                 rng
             }
         }
@@ -287,6 +325,39 @@ mod tests {
             assert_eq!(sobol_1_reversed(r), sobol_dimension(1, r.reverse_bits()).reverse_bits());
             assert_eq!(sobol_2_reversed(r), sobol_dimension(2, r.reverse_bits()).reverse_bits());
         }
+    }
+
+    /// Each half of a pixel's samples (`in_first_half`) is spread over the
+    /// pixel as the whole is: of 64 samples, 32 in each half, and each
+    /// half's jitter points two in each of 16 boxes, every split into
+    /// 2^a × 2^(4−a) cells. By the index's parity, one half lay left of the
+    /// middle; by the parity of its odd bits (Cycles' split of its
+    /// progressive multi-jittered samples), half of the rows were empty.
+    #[test]
+    fn either_half_of_the_samples_covers_the_pixel() {
+        let split = |pixel: u64, half: fn(u64, u64) -> bool| {
+            let (first, second): (Vec<u64>, Vec<u64>) = (0..64).partition(|&s| half(pixel, s));
+            [first, second].map(|h| h.iter().map(|&s| Rng::for_pixel_sample(Sampler::Sobol, 9, pixel, s).next_2d()).collect::<Vec<_>>())
+        };
+        let cells = |points: &[Vec2], a: u32| {
+            let (cols, rows) = (1u32 << a, 1u32 << (4 - a));
+            let mut seen = [0; 16];
+            for p in points {
+                seen[((p.x * cols as f32) as u32 * rows + (p.y * rows as f32) as u32) as usize] += 1;
+            }
+            seen
+        };
+        for pixel in [0u64, 17, 123_456, 9_999_999] {
+            for points in split(pixel, |pixel, s| in_first_half(Sampler::Sobol, 9, pixel, s)) {
+                assert_eq!(points.len(), 32, "pixel {pixel}");
+                for a in 0..=4 {
+                    assert_eq!(cells(&points, a), [2; 16], "pixel {pixel}, 2^{a} × 2^{}", 4 - a);
+                }
+            }
+            let by_parity = split(pixel, |_, s| s % 2 == 0);
+            assert!((0..=4).any(|a| cells(&by_parity[0], a).contains(&0)));
+        }
+        assert!(in_first_half(Sampler::Random, 0, 3, 4) && !in_first_half(Sampler::Random, 0, 3, 5));
     }
 
     /// The first 2^k samples of a pixel put one point of every set in each

@@ -288,6 +288,38 @@ fn a_request_sets_light_paths_and_the_command_line_overrides_it() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `--noise-threshold` (or the request's `noise_threshold`) renders
+/// adaptively and says how many samples the pixels took; the same
+/// settings give the same image, bit for bit, from the command line or the
+/// request; a threshold that is not a number above 0 is refused.
+#[test]
+fn noise_threshold_renders_adaptively_and_reproducibly() {
+    let dir = temp_dir("adaptive");
+    let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let run = |args: &[&str], exr: &str| {
+        let o = glint(&[&["render", "--spp", "48", "--width", "24", "--height", "24", "-o", &out(exr)], args].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        (stderr(&o), std::fs::read(out(exr)).unwrap())
+    };
+    let (log, first) = run(&["--noise-threshold", "0.5", "--min-samples", "16"], "a.exr");
+    let line = log.lines().find(|l| l.starts_with("adaptive sampling: ")).unwrap_or_else(|| panic!("{log}"));
+    let mean: f64 = line["adaptive sampling: ".len()..].split(' ').next().unwrap().parse().unwrap();
+    assert!((16.0..48.0).contains(&mean), "{line}");
+    let (_, again) = run(&["--noise-threshold", "0.5", "--min-samples", "16"], "b.exr");
+    assert!(first == again, "the same settings gave a different image");
+    let request = dir.join("request.json");
+    std::fs::write(&request, r#"{"noise_threshold": 0.5, "adaptive_min_samples": 16}"#).unwrap();
+    let (_, from_request) = run(&["--request", request.to_str().unwrap()], "c.exr");
+    assert!(first == from_request, "the request's threshold gave a different image");
+    let (log, _) = run(&[], "d.exr");
+    assert!(!log.contains("adaptive sampling"), "{log}");
+    for bad in ["0", "-1", "nan", "inf", "x"] {
+        let o = glint(&["render", &format!("--noise-threshold={bad}"), "-o", &out("e.exr")]);
+        assert!(!o.status.success() && stderr(&o).contains("noise threshold"), "{bad}: {}", stderr(&o));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_missing_environment_image_is_a_one_line_error() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_glint"))

@@ -187,6 +187,19 @@ def test_the_light_paths_setting_goes_in_the_request(empty_scene):
     assert seen == {"AUTO": None, "ON": True, "OFF": False}, seen
 
 
+def test_the_noise_threshold_goes_in_the_request(empty_scene):
+    """Adaptive sampling off (the default) leaves the fields out; on, the
+    threshold and Min Samples go in the request, which `glint render`
+    honours (tests/cli.rs)."""
+    build_scene(empty_scene)
+    settings = empty_scene.glint
+    request, _ = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert "noise_threshold" not in request and "adaptive_min_samples" not in request
+    settings.use_adaptive_sampling, settings.adaptive_threshold, settings.adaptive_min_samples = True, 0.05, 24
+    request, _ = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert request["noise_threshold"] == pytest.approx(0.05) and request["adaptive_min_samples"] == 24
+
+
 def test_cancel_stops_the_render_promptly_and_leaves_nothing_behind(empty_scene, monkeypatch):
     build_scene(empty_scene)
     empty_scene.glint.samples = 1_000_000
