@@ -1054,12 +1054,7 @@ fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u3
 /// LABEL_TRANSMIT_TRANSPARENT) and then left, 1 − the mean of its
 /// throughput: the World seen through glass becomes transparency rather
 /// than colour.
-///
-/// Inlined into its one caller, the tile loop (render.rs): when that loop
-/// grew by adaptive sampling's bookkeeping the compiler stopped inlining
-/// it, and the 1-spp gold sphere took 2.3% more instructions.
 #[allow(clippy::too_many_arguments)]
-#[inline(always)]
 pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
     ctx: &Context,
     prepared: &[Option<[B::Prepared; 2]>],

@@ -4,6 +4,7 @@
 //! split of its samples into passes up to the rounding of the sums.
 
 use crate::bsdf::{Bsdf, BsdfModel, LambertBsdf, PrincipledBsdf, SeedBsdf, WithCoat, WithGlass};
+use crate::camera::Lens;
 use crate::camera_hits::{CameraHits, FirstHit, TileRays};
 use crate::features::{FeatureMode, KernelBsdf};
 use crate::material::Material;
@@ -347,6 +348,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
     // What the set-up added to the wall clock beside the first subpaths.
     total.phases.setup = started.elapsed().saturating_sub(first_lights.as_ref().map_or(Duration::ZERO, |(_, took)| *took));
+    let shared = PassShared::<B> { ctx, prepared: &prepared, lens: &lens, settings, camera_hits: camera_hits.as_ref(), sampler };
     let mut start = samples.start;
     while start < samples.end {
         let range = start..(start + chunk).min(samples.end);
@@ -390,39 +392,32 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         let in_half_bands: Vec<Mutex<&mut [u32]>> = pass_in_half.chunks_mut((w * TILE) as usize).map(Mutex::new).collect();
         let results: Vec<Option<PassStats>> = tiles
             .par_iter()
-            .map_init(|| (TileRays::new(TILE), Vec::with_capacity((TILE * TILE) as usize), Vec::new(), Vec::new()), |(rays, rngs, halves, in_half), &(x0, y0)| {
+            .map_init(|| (TileRays::new(TILE), Vec::with_capacity((TILE * TILE) as usize)), |(rays, rngs), &(x0, y0)| {
                 if cancel.load(Ordering::Relaxed) {
                     return None;
                 }
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
                 let mut stats = PassStats::default();
-                let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
-                let mut covered = [0.0f32; (TILE * TILE) as usize];
                 let tw = (x1 - x0) as usize;
-                let tile_pixels = (tw as u32 * (y1 - y0)) as usize;
-                // Adaptive sampling: whether the tile's pixels take samples.
-                let sampled = |i: usize| active.is_none_or(|a| a[((y0 + (i / tw) as u32) * w + x0 + (i % tw) as u32) as usize]);
-                let sampling = if active.is_some() { (0..tile_pixels).filter(|&i| sampled(i)).count() } else { tile_pixels };
-                if sampling == 0 {
+                let band = (y0 / TILE) as usize;
+                // Adaptive sampling's tiles go their own way, which leaves
+                // this loop as it was (the bookkeeping in it had cost a
+                // render without a threshold 3.5% more instructions).
+                if let Some(active) = active {
+                    let into = TileSums { sum: &bands[band], coverage: coverage_bands.get(band), half: &half_bands[band], in_half: &in_half_bands[band] };
+                    let sampling = adaptive_tile::<B, AREA, PUNCTUAL, LAMPS>(&shared, light_vertices.as_deref(), range.clone(), active, (x0, y0, x1, y1), rays, into, &mut stats);
+                    progress(sampling as u64 * range.len() as u64);
                     return Some(stats);
                 }
-                // The first half's sums and counts (adaptive.rs).
-                if active.is_some() {
-                    halves.clear();
-                    halves.resize(tile_pixels, Vec3::ZERO);
-                    in_half.clear();
-                    in_half.resize(tile_pixels, 0u32);
-                }
-                // A tile most of whose pixels have stopped traces its few
-                // camera rays through the BVH: binning costs per pixel of
-                // the tile, sampled or not.
-                let binned = camera_hits.as_ref().filter(|_| sampling * 2 >= tile_pixels);
+                let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
+                let mut covered = [0.0f32; (TILE * TILE) as usize];
                 // Sample index by sample index over the tile: the light
                 // vertices a sample index's connections pick from at random
                 // (light_paths.rs) stay in cache for the whole tile, where
                 // going through a pixel's samples first had every pick read
                 // from a different sample index's set. Each pixel's sum
                 // adds its samples in the same order either way.
+                let tile_pixels = (tw as u32 * (y1 - y0)) as usize;
                 for s in range.clone() {
                     let vertices = light_vertices.as_ref().map(|v| &v[(s - range.start) as usize]);
                     // The tile's camera rays first: their numbers are
@@ -431,33 +426,24 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                     // where camera_hits.rs finds them.
                     rngs.clear();
                     for i in 0..tile_pixels as u32 {
-                        if active.is_some() && !sampled(i as usize) {
-                            continue;
-                        }
                         let (x, y) = (x0 + i % tw as u32, y0 + i / tw as u32);
                         let mut rng = Rng::for_pixel_sample(sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
                         let jitter = rng.next_2d();
                         let aperture = if lens.has_aperture() { rng.next_2d() } else { Vec2::ZERO };
                         let ray = lens.ray(Vec2::new(x as f32, y as f32) + jitter, aperture);
                         rays.set(i as usize, ray.map_or(Vec3::ZERO, |r| r.dir));
-                        let first_half = active.is_some() && in_first_half(sampler, settings.seed, y as u64 * w as u64 + x as u64, s as u64);
-                        rngs.push((i as usize, rng, ray, first_half));
+                        rngs.push((rng, ray));
                     }
-                    if let Some(hits) = binned {
+                    if let Some(hits) = &camera_hits {
                         if s == range.start {
                             hits.face(x0, y0, tw as u32, y1 - y0, rays);
                         }
                         hits.nearest(tw as u32, y1 - y0, rays);
                     }
-                    for (i, rng, ray, first_half) in rngs.iter_mut() {
-                        let i = *i;
-                        let (sum, covered) = (&mut sums[i], &mut covered[i]);
-                        if *first_half {
-                            in_half[i] += 1;
-                        }
+                    for (i, ((sum, covered), (rng, ray))) in sums[..tile_pixels].iter_mut().zip(covered.iter_mut()).zip(rngs.iter_mut()).enumerate() {
                         let (l, coverage) = match ray {
                             Some(ray) => {
-                                let first = binned.map_or(FirstHit::Trace, |_| rays.first(i));
+                                let first = camera_hits.as_ref().map_or(FirstHit::Trace, |_| rays.first(i));
                                 radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, &prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first)
                             }
                             // Outside a fisheye's circle: black and opaque,
@@ -466,27 +452,17 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                         };
                         if sample_fits(l) {
                             *sum += l;
-                            if *first_half {
-                                halves[i] += l;
-                            }
                         } else {
                             stats.discarded += 1;
                         }
                         *covered += coverage;
                     }
                 }
-                let band = (y0 / TILE) as usize;
                 add_tile(&bands[band], &sums[..tile_pixels], tw, x0, w);
                 if let Some(band) = coverage_bands.get(band) {
                     add_tile(band, &covered[..tile_pixels], tw, x0, w);
                 }
-                if let Some(band) = half_bands.get(band) {
-                    add_tile(band, halves, tw, x0, w);
-                }
-                if let Some(band) = in_half_bands.get(band) {
-                    add_tile(band, in_half, tw, x0, w);
-                }
-                progress(sampling as u64 * range.len() as u64);
+                progress(tw as u64 * (y1 - y0) as u64 * range.len() as u64);
                 Some(stats)
             })
             .collect();
@@ -521,6 +497,106 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     }
     film.samples += samples.len() as u32;
     Ok(total)
+}
+
+/// What every tile of a pass shares, for `adaptive_tile`.
+struct PassShared<'a, B: Bsdf> {
+    ctx: &'a Context<'a>,
+    prepared: &'a [Option<[B::Prepared; 2]>],
+    lens: &'a Lens<'a>,
+    settings: &'a RenderSettings,
+    camera_hits: Option<&'a CameraHits<'a>>,
+    sampler: Sampler,
+}
+
+/// Where a tile adds its sums: its band of each of the pass's buffers.
+struct TileSums<'b, 'a> {
+    sum: &'b Mutex<&'a mut [Vec3]>,
+    coverage: Option<&'b Mutex<&'a mut [f32]>>,
+    half: &'b Mutex<&'a mut [Vec3]>,
+    in_half: &'b Mutex<&'a mut [u32]>,
+}
+
+/// A tile's samples `range` (x0, y0 to x1, y1, exclusive) under adaptive
+/// sampling: only of its pixels still `active`, each sample added to its
+/// half's sums too (adaptive.rs). Otherwise the tile loop's work. A tile
+/// with fewer than half its pixels still sampling traces its camera rays
+/// through the BVH: binning costs per pixel of the tile, sampled or not.
+/// Returns the pixels it sampled.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn adaptive_tile<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
+    shared: &PassShared<B>,
+    light_vertices: Option<&[LightVertices]>,
+    range: Range<u32>,
+    active: &[bool],
+    (x0, y0, x1, y1): (u32, u32, u32, u32),
+    rays: &mut TileRays,
+    into: TileSums,
+    stats: &mut PassStats,
+) -> usize {
+    let PassShared { ctx, prepared, lens, settings, camera_hits, sampler } = *shared;
+    let w = settings.width;
+    let tw = (x1 - x0) as usize;
+    let tile_pixels = tw * (y1 - y0) as usize;
+    let pixel = |i: usize| (y0 as usize + i / tw) * w as usize + x0 as usize + i % tw;
+    let sampled: Vec<usize> = (0..tile_pixels).filter(|&i| active[pixel(i)]).collect();
+    if sampled.is_empty() {
+        return 0;
+    }
+    let (mut sums, mut covered) = (vec![Vec3::ZERO; tile_pixels], vec![0.0f32; tile_pixels]);
+    let (mut halves, mut in_half) = (vec![Vec3::ZERO; tile_pixels], vec![0u32; tile_pixels]);
+    let binned = camera_hits.filter(|_| sampled.len() * 2 >= tile_pixels);
+    let mut rngs = Vec::with_capacity(sampled.len());
+    for s in range.clone() {
+        let vertices = light_vertices.map(|v| &v[(s - range.start) as usize]);
+        rngs.clear();
+        for &i in &sampled {
+            let p = pixel(i) as u64;
+            let (x, y) = (x0 + (i % tw) as u32, y0 + (i / tw) as u32);
+            let mut rng = Rng::for_pixel_sample(sampler, settings.seed, p, s as u64);
+            let jitter = rng.next_2d();
+            let aperture = if lens.has_aperture() { rng.next_2d() } else { Vec2::ZERO };
+            let ray = lens.ray(Vec2::new(x as f32, y as f32) + jitter, aperture);
+            rays.set(i, ray.map_or(Vec3::ZERO, |r| r.dir));
+            rngs.push((i, rng, ray, in_first_half(sampler, settings.seed, p, s as u64)));
+        }
+        if let Some(hits) = binned {
+            if s == range.start {
+                hits.face(x0, y0, tw as u32, y1 - y0, rays);
+            }
+            hits.nearest(tw as u32, y1 - y0, rays);
+        }
+        for (i, rng, ray, first) in rngs.iter_mut() {
+            let i = *i;
+            let (l, coverage) = match ray {
+                Some(ray) => {
+                    let first_hit = binned.map_or(FirstHit::Trace, |_| rays.first(i));
+                    radiance::<B, AREA, PUNCTUAL, LAMPS>(ctx, prepared, vertices, ray, lens.density(ray.dir), settings, rng, &mut stats.rays, first_hit)
+                }
+                None => (Vec3::ZERO, 1.0),
+            };
+            if *first {
+                in_half[i] += 1;
+            }
+            if sample_fits(l) {
+                sums[i] += l;
+                if *first {
+                    halves[i] += l;
+                }
+            } else {
+                stats.discarded += 1;
+            }
+            covered[i] += coverage;
+        }
+    }
+    add_tile(into.sum, &sums, tw, x0, w);
+    if let Some(band) = into.coverage {
+        add_tile(band, &covered, tw, x0, w);
+    }
+    add_tile(into.half, &halves, tw, x0, w);
+    add_tile(into.in_half, &in_half, tw, x0, w);
+    sampled.len()
 }
 
 /// Add a tile's per-pixel sums (rows of `tw`, its left edge at `x0`) into
