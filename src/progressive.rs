@@ -158,4 +158,32 @@ mod tests {
             assert_eq!(p.light_subpaths > Duration::ZERO, light_paths == LightPaths::On, "{p:?}");
         }
     }
+
+    /// The daemon's paced passes end at adaptive sampling's checks too:
+    /// its render stops the same pixels at the same counts as `glint
+    /// render`'s passes from check to check, the image the same but for
+    /// the rounding of sums split otherwise.
+    #[test]
+    fn paced_passes_end_at_the_adaptive_checks() {
+        let scene = cornell();
+        let (ctx, _) = Context::new(&scene);
+        let settings = RenderSettings { adaptive: Some(crate::adaptive::Adaptive { threshold: 0.05, min_samples: 16 }), ..settings(200) };
+        let film_of = |paced| {
+            let mut film = Film::new(24, 24);
+            let mut passes = Vec::new();
+            let budget = Budget { samples: 200, time: None, paced };
+            render_progressive(&ctx, &settings, &budget, &mut film, &AtomicBool::new(false), &|_| {}, &mut |p| passes.push(p.film.samples)).unwrap();
+            (film, passes)
+        };
+        let ((paced, passes), (fixed, checks)) = (film_of(true), film_of(false));
+        assert!(checks.iter().all(|n| n % 16 == 0 || *n == 200), "{checks:?}");
+        assert!(checks.iter().all(|n| passes.contains(n)), "{passes:?} skipped a check of {checks:?}");
+        assert!(passes.len() > checks.len(), "{passes:?}");
+        let (a, b) = (paced.convergence.as_ref().unwrap(), fixed.convergence.as_ref().unwrap());
+        assert_eq!(a.counts, b.counts);
+        assert!(a.counts.iter().any(|&n| n < 200), "no pixel stopped: {:?}", a.counts);
+        for (p, f) in paced.mean().iter().zip(fixed.mean()) {
+            assert!((*p - f).abs().max_element() <= 1e-5 * f.max_element().max(1.0), "{p} vs {f}");
+        }
+    }
 }
