@@ -271,6 +271,9 @@ def render_request(depsgraph, job, width, height):
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
+    absorption, other_volumes = volume_absorption(depsgraph)
+    if other_volumes:
+        warnings.append(f"{', '.join(other_volumes)}: a volume other than a Volume Absorption node with unlinked Color and Density is not rendered by Glint")
     tangents, other_tangents = anisotropy_tangents(depsgraph)
     if other_tangents:
         warnings.append(f"{', '.join(other_tangents)}: a Tangent other than a Tangent node's (Radial, or one of the first two UV maps) is not rendered by Glint, which stretches Anisotropic along the default tangent (circles about the object's Z axis)")
@@ -305,6 +308,8 @@ def render_request(depsgraph, job, width, height):
         request["single_scatter_materials"] = single_scatter
     if tints:
         request["coat_tints"] = tints
+    if absorption:
+        request["volume_absorption"] = absorption
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
     if settings.use_adaptive_sampling:
@@ -446,6 +451,30 @@ def coat_settings(depsgraph):
                 iors.append(m.name)
             break
     return tints, sorted(set(iors))
+
+
+def volume_absorption(depsgraph):
+    """What glTF leaves out of materials with a volume: a Volume Absorption
+    node on the Material Output's Volume, for the request (its Color clamped
+    to [0, 1] and Density to ≥ 0; Glint absorbs (1 − Color) × Density per
+    metre inside the material's glass, as Cycles does); and the names of
+    materials whose volume is something else (scattering, emission, linked
+    inputs), which Glint does not render. The exporter writes
+    KHR_materials_volume only from a glTF Material Output node."""
+    records, others = [], []
+    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+        outputs = [n for n in m.node_tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output and n.target in {"ALL", "CYCLES"}]
+        volume = outputs[0].inputs["Volume"] if outputs else None
+        if volume is None or not volume.is_linked:
+            continue
+        node = volume.links[0].from_node
+        color, density = (node.inputs.get("Color"), node.inputs.get("Density")) if node.type == "VOLUME_ABSORPTION" else (None, None)
+        if color is None or density is None or color.is_linked or density.is_linked:
+            others.append(m.name)
+            continue
+        rgb = [min(max(c, 0.0), 1.0) for c in color.default_value[:3]]
+        records.append({"material": m.name, "color": rgb, "density": max(float(density.default_value), 0.0)})
+    return records, others
 
 
 def anisotropy_tangents(depsgraph):

@@ -309,6 +309,7 @@ impl Lens<'_> {
     /// from the aperture's point `aperture_u` (two numbers in [0, 1), read
     /// only where the camera has an aperture: `has_aperture`). None where
     /// a panorama sees nothing (outside a fisheye's circle).
+    #[inline]
     pub fn ray(&self, pixel: Vec2, aperture_u: Vec2) -> Option<CameraRay> {
         let c = self.camera;
         let [near, far] = c.clip;

@@ -87,6 +87,9 @@ pub struct Features {
     pub alpha: usize,
     /// Materials with some glass (KHR_materials_transmission).
     pub transmission: usize,
+    /// Glass that absorbs inside (media.rs): paths track the medium they
+    /// are in, and no light subpaths are traced.
+    pub absorbing: usize,
     /// Materials with a clear coat (KHR_materials_clearcoat).
     pub coat: usize,
     /// Anisotropic materials (KHR_materials_anisotropy).
@@ -136,6 +139,7 @@ impl Features {
             }
             f.alpha += m.has_alpha() as usize;
             f.transmission += m.is_transmissive() as usize;
+            f.absorbing += (m.is_transmissive() && m.absorption != crate::Vec3::ZERO) as usize;
             f.coat += m.is_coated() as usize;
             f.anisotropic += (m.anisotropy > 0.0) as usize;
             f.hidden_from_camera += m.hidden_from_camera as usize;
@@ -192,6 +196,9 @@ impl fmt::Display for Features {
         }
         if self.transmission > 0 {
             on.push(format!("glass={}", self.transmission));
+        }
+        if self.absorbing > 0 {
+            on.push(format!("absorbing={}", self.absorbing));
         }
         if self.coat > 0 {
             on.push(format!("coat={}", self.coat));

@@ -62,6 +62,7 @@ use crate::lights::{LightChoice, LightSample, Lights, Picked};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
 use crate::punctual::{PunctualKind, PunctualLight};
 use crate::material::Surface;
+use crate::media::{self, Sides};
 use crate::render::{LightPaths, RenderSettings};
 use crate::rng::Rng;
 use crate::sampling::Frame;
@@ -144,7 +145,8 @@ impl<'a> Context<'a> {
     /// need emitting triangles to start from, MIS to weigh them, and room
     /// for a connection's two scattering events.
     pub fn traces_light_paths(&self, settings: &RenderSettings) -> bool {
-        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty();
+        // Not with absorbing media (media.rs).
+        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && self.features.absorbing == 0;
         possible
             && match settings.light_paths {
                 LightPaths::On => true,
@@ -644,16 +646,28 @@ fn connection_density(ctx: &Context, connect: f32, emitter: u32, cos_to_light: f
 /// `picked` and its shadow ray, MIS-weighted against BSDF sampling when
 /// `mis` is set.
 #[allow(clippy::too_many_arguments)]
-fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, picked: Option<(Picked, Vec2)>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, picked: Option<(Picked, Vec2)>, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some((picked, u)) = picked else { return Vec3::ZERO };
     match ctx.lights.point_on(ctx.scene, si.p, picked, u) {
         None => Vec3::ZERO,
-        Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, rng, rays),
-        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, chain, &ls, rng, rays),
-        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, mis, &ctx.scene.punctual[index], probability, u, rng, rays),
+        Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, sides, rng, rays),
+        Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, chain, &ls, sides, rng, rays),
+        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, mis, &ctx.scene.punctual[index], probability, u, sides, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
         Some(_) => Vec3::ZERO,
+    }
+}
+
+/// `light`, a light sample's, times what its shadow ray from `si` along
+/// `wi` keeps over the length `t` of the medium on its side (media.rs):
+/// all of it without media, and in a kernel without glass (`B::GLASS`)
+/// not even a multiplication.
+#[inline]
+fn through_medium<B: Bsdf>(light: Vec3, sides: Option<&Sides>, si: &SurfaceHit, wi: Vec3, t: f32) -> Vec3 {
+    match sides {
+        Some(s) if B::GLASS => light * s.transmittance(wi.dot(si.ng), t),
+        _ => light,
     }
 }
 
@@ -739,7 +753,7 @@ fn world_direction(ctx: &Context, si: &SurfaceHit, u: Vec2, mis: bool) -> Option
 
 /// One direction toward the World and its shadow ray.
 #[allow(clippy::too_many_arguments)]
-fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, probability: f32, u: Vec2, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some((wi, pdf)) = world_direction(ctx, si, u, mis) else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, wi).filter(|_| pdf > 0.0) else { return Vec3::ZERO };
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
@@ -753,7 +767,7 @@ fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis:
     }
     let p_light = probability * pdf;
     let weight = if mis { power_heuristic(p_light, bsdf_pdf) } else { 1.0 };
-    le * f * (weight * wi_local.z.abs() / p_light)
+    through_medium::<B>(le * f * (weight * wi_local.z.abs() / p_light), sides, si, wi, f32::INFINITY)
 }
 
 /// Where the current ray came from: what MIS weights of the light it
@@ -827,7 +841,7 @@ fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
 /// its sample takes the whole weight; a sized one is MIS-weighted against
 /// the BSDF rays that see it (`sized_lights_seen`).
 #[allow(clippy::too_many_arguments)]
-fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, light: &PunctualLight, probability: f32, u: Vec2, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, light: &PunctualLight, probability: f32, u: Vec2, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let Some(inc) = light.incident(si.p, u) else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, inc.wi) else { return Vec3::ZERO };
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
@@ -839,7 +853,7 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
         return Vec3::ZERO;
     }
     let weight = if mis && inc.pdf.is_finite() { power_heuristic(probability * inc.pdf, bsdf_pdf) } else { 1.0 };
-    f * inc.irradiance * (weight * wi_local.z.abs() / probability)
+    through_medium::<B>(f * inc.irradiance * (weight * wi_local.z.abs() / probability), sides, si, inc.wi, inc.distance)
 }
 
 /// The sized point, spot and sun lights a ray from `o` sees: a sun if it
@@ -848,7 +862,7 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
 /// or `reach` (a camera ray's Clip Start and End); a camera ray only those
 /// the camera sees (Blender hides lights from it by default).
 #[allow(clippy::too_many_arguments)]
-fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min: f32, reach: f32, from: &Previous, mis: bool) -> Vec3 {
+fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min: f32, reach: f32, from: &Previous, mis: bool, medium: Vec3) -> Vec3 {
     if from.depth > 0 && !mis {
         return Vec3::ZERO;
     }
@@ -864,7 +878,15 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min:
             (_, None) => reach,
         };
         if let Some(seen) = light.seen(o, d, t_min, t_max) {
-            l += seen.radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf);
+            let mut radiance = seen.radiance;
+            // In an absorbing medium, over the way to the light's centre
+            // (a sun's: all the way out), within its radius of the point
+            // seen.
+            if medium != Vec3::ZERO {
+                let t = if light.kind == PunctualKind::Sun { f32::INFINITY } else { (light.position - o).length() };
+                radiance *= media::transmittance(medium, t);
+            }
+            l += radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf);
         }
     }
     l
@@ -887,7 +909,7 @@ fn unblocked(ctx: &Context, si: &SurfaceHit, w: Vec3, target: Vec3, error: Vec3,
 
 /// One point on an emitting triangle and its shadow ray.
 #[allow(clippy::too_many_arguments)]
-fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, ls: &LightSample, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, ls: &LightSample, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let to_light = ls.point - si.p;
     let dist2 = to_light.length_squared();
     if !(dist2 > 0.0) {
@@ -917,7 +939,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
         return Vec3::ZERO;
     }
     let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, chain.toward(wi_local), ls.triangle, wi.dot(si.ng), cos_light)) } else { 1.0 };
-    le * f * (weight * wi_local.z.abs() / pdf)
+    through_medium::<B>(le * f * (weight * wi_local.z.abs() / pdf), sides, si, wi, dist)
 }
 
 /// Emission `le` of emitting triangle `triangle` seen by a ray at distance
@@ -1095,6 +1117,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     // the camera ray's own, on a transparent film, and with Transparent
     // Glass the rays after glass alone.
     let mut see_through = settings.transparent;
+    // The absorbing medium the ray travels in (media.rs): none for the
+    // camera's, and always none in a scene without one (a kernel without
+    // glass has no code for it).
+    let absorbing = B::GLASS && ctx.features.absorbing > 0;
+    let mut medium = Vec3::ZERO;
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
     for depth in 0..=max_depth {
@@ -1128,6 +1155,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         } else {
             ctx.lamps.intersect_few(o, d, hit.map_or(reach, |h| h.t))
         };
+        // What the path keeps of light reaching it from a distance t along
+        // this ray, in an absorbing medium.
+        let absorbed = |beta: Vec3, t: f32| if absorbing { beta * media::transmittance(medium, t) } else { beta };
         if let Some(lamp) = lamp {
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
             let material = &ctx.scene.materials[tri.material as usize];
@@ -1135,17 +1165,17 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             if (depth > 0 || material.camera_sees_lamp) && seen_kept {
                 let cos_light = tri.cross().normalize().dot(d);
                 let le = material.emitted(cos_light < 0.0) * material.spread_factor(-cos_light);
-                l += beta * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, settings.mis);
+                l += absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
-            l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, settings.mis);
+            l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, settings.mis, if absorbing { medium } else { Vec3::ZERO });
         }
         let Some(hit) = hit else {
             // Film › Transparent: the camera does not see the World (it
             // still lights what the camera sees).
             if seen_kept && !see_through {
-                l += beta * world_seen(ctx, d, &from, settings.mis);
+                l += absorbed(beta, f32::INFINITY) * world_seen(ctx, d, &from, settings.mis);
             }
             let coverage = match (depth, see_through) {
                 (0, _) => 0.0,
@@ -1154,8 +1184,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             };
             return (l, coverage);
         };
+        beta = absorbed(beta, hit.t);
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
+        let sides = absorbing.then(|| Sides::at(medium, material, si.front_face));
         if AREA && seen_kept {
             let mut le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
             if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
@@ -1212,7 +1244,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let ends = depth + 1 == max_depth && !settings.mis;
         let step = if ends { None } else { next_step(&si, &bsdf, wo, beta, depth, rng) };
         if lit {
-            let direct = direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, picked, rng, rays);
+            let direct = direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, picked, sides.as_ref(), rng, rays);
             if settings.strategies.keeps(Strategy::Light, depth + 1) {
                 l += beta * direct;
             }
@@ -1239,6 +1271,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         let Some(Step { sample: s, wi, origin, beta: next_beta }) = step else { break };
         beta = next_beta;
+        if let Some(sides) = sides {
+            medium = sides.toward(wi.dot(si.ng));
+        }
         see_through = see_through && settings.transparent_glass.is_some_and(|threshold| s.wi.z < 0.0 && si.surface.roughness <= threshold);
         o = origin;
         d = wi;

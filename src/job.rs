@@ -11,7 +11,7 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{AnisotropyTangent, CoatTint, LensRequest, LightSize, RenderRequest};
+use crate::request::{AnisotropyTangent, CoatTint, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -121,6 +121,7 @@ pub struct SceneExtras<'a> {
     /// Materials rendered with plain (single-scattering) GGX.
     pub single_scatter_materials: &'a [String],
     pub coat_tints: &'a [CoatTint],
+    pub volume_absorption: &'a [VolumeAbsorption],
     pub default_surface: Option<[f32; 3]>,
     pub light_sizes: &'a [LightSize],
     /// The camera's shift and depth of field.
@@ -132,7 +133,7 @@ pub struct SceneExtras<'a> {
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
     }
 }
 
@@ -222,6 +223,16 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
             m.coat_tint = Vec3::from(*tint);
         }
     }
+    for VolumeAbsorption { material, color, density } in extras.volume_absorption {
+        if color.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) || !(density.is_finite() && *density >= 0.0) {
+            return Err(format!("{name}: volume absorption of '{material}' must have colour channels in [0, 1] and a finite density ≥ 0"));
+        }
+        // Cycles' Volume Absorption: σ_a = (1 − Color) × Density, per
+        // metre (a Blender unit).
+        for m in scene.materials.iter_mut().filter(|m| &m.name == material) {
+            m.absorption = (Vec3::ONE - Vec3::from(*color)) * *density;
+        }
+    }
     if let (Some(colour), Some(id)) = (extras.default_surface, scene.default_material) {
         let m = &mut scene.materials[id as usize];
         (m.base_color, m.metallic, m.specular) = (Vec3::from(colour), 0.0, 0.0);
@@ -288,6 +299,24 @@ mod tests {
         let bad = [CoatTint { material: "red".into(), tint: [0.9, f32::NAN, 0.2] }];
         let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { coat_tints: &bad, ..SceneExtras::default() }).err().unwrap();
         assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+    }
+
+    /// A request's Volume Absorption reaches the material it names as
+    /// Cycles' σ_a = (1 − Color) × Density, replacing the file's; a colour
+    /// outside [0, 1] or a density below 0 or not finite is one line naming
+    /// the file and the material.
+    #[test]
+    fn volume_absorption_reaches_its_material_and_bad_ones_are_errors() {
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        let volumes = [VolumeAbsorption { material: "red".into(), color: [0.75, 0.5, 1.0], density: 4.0 }];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { volume_absorption: &volumes, ..SceneExtras::default() }).unwrap();
+        let absorption_of = |name: &str| job.scene.materials.iter().find(|m| m.name == name).unwrap().absorption;
+        assert_eq!((absorption_of("red"), absorption_of("white")), (Vec3::new(1.0, 2.0, 0.0), Vec3::ZERO));
+        for (color, density) in [([0.5, 1.5, 0.5], 1.0), ([0.5, f32::NAN, 0.5], 1.0), ([0.5; 3], -1.0), ([0.5; 3], f32::INFINITY)] {
+            let bad = [VolumeAbsorption { material: "red".into(), color, density }];
+            let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { volume_absorption: &bad, ..SceneExtras::default() }).err().unwrap();
+            assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+        }
     }
 
     /// A Tangent node in the request reaches its material; one naming no

@@ -25,6 +25,7 @@ pub mod lights;
 pub mod loader;
 pub mod memory;
 pub mod material;
+pub mod media;
 pub mod output;
 pub mod panorama;
 pub mod parallelogram;

@@ -171,6 +171,12 @@ pub struct Material {
     pub transmission: f32,
     /// KHR_materials_ior (1.5 without it, Blender's default too).
     pub ior: f32,
+    /// σ_a, per metre of world space, of the medium inside the mesh, which
+    /// a ray refracted into it through a front face travels in (media.rs):
+    /// KHR_materials_volume's −ln(attenuationColor) / attenuationDistance,
+    /// or a render request's Blender Volume Absorption, (1 − Color) ×
+    /// Density. Zero: clear.
+    pub absorption: Vec3,
     /// KHR_materials_clearcoat's clearcoatFactor and
     /// clearcoatRoughnessFactor (0 and 0 without it).
     pub coat: f32,
@@ -222,6 +228,7 @@ impl Default for Material {
             multiscatter: true,
             transmission: 0.0,
             ior: 1.5,
+            absorption: Vec3::ZERO,
             coat: 0.0,
             coat_roughness: 0.0,
             coat_tint: Vec3::ONE,

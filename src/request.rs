@@ -14,6 +14,7 @@
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "coat_tints": [ { "material": "Car paint", "tint": [0.6, 0.1, 0.1] } ],
+//!   "volume_absorption": [ { "material": "Wine", "color": [0.8, 0.1, 0.2], "density": 12 } ],
 //!   "hidden_from_camera": [ "Bounce card" ],
 //!   "anisotropy_tangents": [ { "material": "Brushed", "uv_map": 0 },
 //!     { "material": "Dial", "radial_axis": "X" } ],
@@ -35,6 +36,18 @@ use std::path::Path;
 pub struct CoatTint {
     pub material: String,
     pub tint: [f32; 3],
+}
+
+/// One material's Blender Volume Absorption (a Volume Absorption node on
+/// its Material Output's Volume): Color linear Rec.709, each channel in
+/// [0, 1]; Density per metre, finite and ≥ 0. Inside the material's glass
+/// it absorbs (1 − Color) × Density per metre, as Cycles reads the node.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeAbsorption {
+    pub material: String,
+    pub color: [f32; 3],
+    pub density: f32,
 }
 
 /// Largest request file read (area lights are ~300 bytes each).
@@ -84,6 +97,10 @@ pub struct RenderRequest {
     /// Blender's Coat Tint of coated materials, by name, where it is not
     /// white (glTF's clearcoat has no tint).
     pub coat_tints: Vec<CoatTint>,
+    /// Glass materials, by name, with a Volume Absorption inside (replaces
+    /// the glTF file's KHR_materials_volume, which Blender's exporter
+    /// writes only from a glTF Material Output node).
+    pub volume_absorption: Vec<VolumeAbsorption>,
     pub area_lights: Vec<AreaLight>,
     /// Diffuse colour of primitives without a material, instead of glTF's
     /// default (white metal): Cycles renders them with its default surface,

@@ -219,6 +219,7 @@ impl<B: Bsdf> WithCoat<B> {
 
 impl<B: Bsdf> Bsdf for WithCoat<B> {
     type Prepared = (B::Prepared, Option<CoatLayer>);
+    const GLASS: bool = B::GLASS;
 
     fn prepare(surface: &Surface) -> Self::Prepared {
         (B::prepare(surface), CoatLayer::for_material(surface))

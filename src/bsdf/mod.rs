@@ -300,6 +300,9 @@ pub trait Bsdf: Sized {
     /// What the model computes of a surface before it knows wo: once per
     /// material where the surface is the same at every point (render.rs).
     type Prepared: Sync;
+    /// Whether the model has glass: without, no path enters a medium
+    /// (media.rs), and a kernel compiled for it carries no code for one.
+    const GLASS: bool = false;
     fn prepare(surface: &Surface) -> Self::Prepared;
     /// The BSDF for one outgoing direction.
     fn at(prepared: &Self::Prepared, wo: Vec3) -> Self;

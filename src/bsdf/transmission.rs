@@ -51,6 +51,7 @@ impl<B: Bsdf> WithGlass<B> {
 impl<B: Bsdf> Bsdf for WithGlass<B> {
     // The base's surface depends on the glass's share: nothing is shared.
     type Prepared = Surface;
+    const GLASS: bool = true;
     fn prepare(surface: &Surface) -> Surface {
         *surface
     }

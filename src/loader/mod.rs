@@ -40,6 +40,7 @@ const RENDERED: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_ior",
+    "KHR_materials_volume",
     "KHR_materials_clearcoat",
     "KHR_materials_anisotropy",
     "KHR_lights_punctual",
@@ -883,6 +884,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
     let transmission = extensions.and_then(|e| e.transmission.as_ref()).map_or(0.0, |t| finite_or(t.transmission_factor.0, 0.0).clamp(0.0, 1.0));
     // KHR_materials_ior allows 1 and up; anything else is its default.
     let ior = extensions.and_then(|e| e.ior.as_ref()).map(|i| i.ior.0).filter(|i| i.is_finite() && *i >= 1.0).unwrap_or(1.5);
+    let absorption = extensions.and_then(|e| e.volume.as_ref()).map_or(Vec3::ZERO, volume_absorption);
     let (coat, coat_roughness) = clearcoat(clearcoat_extension(m));
     let (anisotropy, anisotropy_rotation) = anisotropy(m);
     let alpha_mode = match m.alpha_mode {
@@ -907,6 +909,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         multiscatter: true,
         transmission,
         ior,
+        absorption,
         coat,
         coat_roughness,
         coat_tint: Vec3::ONE,
@@ -916,6 +919,20 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         anisotropy_tangent: TangentSource::default(),
         hidden_from_camera: false,
     }
+}
+
+/// KHR_materials_volume's absorption coefficient σ_a = −ln(c)/d per
+/// metre (world space, as the extension gives d), for a material with a
+/// volume (thicknessFactor > 0; 0 is thin-walled, no volume). A distance
+/// that is not a positive number is the default, +∞ (no absorption);
+/// a colour channel of 0 absorbs as one of 10⁻⁶, so that σ_a stays finite.
+fn volume_absorption(v: &gltf::json::extensions::material::Volume) -> Vec3 {
+    let distance = v.attenuation_distance.0;
+    if !(finite_or(v.thickness_factor.0, 0.0) > 0.0 && distance > 0.0 && distance.is_finite()) {
+        return Vec3::ZERO;
+    }
+    let colour = unit_colour(v.attenuation_color.0, 1.0).max(Vec3::splat(1e-6));
+    Vec3::new(-colour.x.ln(), -colour.y.ln(), -colour.z.ln()) / distance
 }
 
 /// A material's KHR_materials_clearcoat, which gltf-json leaves as JSON.

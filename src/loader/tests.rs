@@ -179,6 +179,35 @@ fn transmission_and_ior() {
     assert_eq!((m.transmission, m.ior), (1.0, 1.5));
 }
 
+/// KHR_materials_volume: σ_a = −ln(attenuationColor) / attenuationDistance
+/// where the material has a volume (thicknessFactor > 0); none for a thin
+/// wall, an infinite or non-positive distance; a black channel absorbs as
+/// 10⁻⁶, finitely.
+#[test]
+fn volume_absorption_from_attenuation() {
+    let mut d = base_doc();
+    assert_eq!(load(&d).unwrap().materials[0].absorption, Vec3::ZERO);
+    let volume = |v: serde_json::Value| json!({"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_volume": v});
+    d["extensionsUsed"] = json!(["KHR_materials_transmission", "KHR_materials_volume"]);
+    d["materials"][0]["extensions"] = volume(json!({"thicknessFactor": 0.1, "attenuationDistance": 2.0, "attenuationColor": [1.0, 0.5, 0.25]}));
+    let s = load(&d).unwrap();
+    let sigma = s.materials[0].absorption;
+    assert!((sigma - Vec3::new(0.0, 2f32.ln() / 2.0, 4f32.ln() / 2.0)).abs().max_element() < 1e-6, "{sigma}");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    for v in [
+        json!({"thicknessFactor": 0.0, "attenuationDistance": 2.0, "attenuationColor": [0.5, 0.5, 0.5]}),
+        json!({"thicknessFactor": 1.0, "attenuationColor": [0.5, 0.5, 0.5]}),
+        json!({"thicknessFactor": 1.0, "attenuationDistance": -1.0, "attenuationColor": [0.5, 0.5, 0.5]}),
+        json!({"thicknessFactor": 1.0, "attenuationDistance": 0.0, "attenuationColor": [0.5, 0.5, 0.5]}),
+    ] {
+        d["materials"][0]["extensions"] = volume(v.clone());
+        assert_eq!(load(&d).unwrap().materials[0].absorption, Vec3::ZERO, "{v}");
+    }
+    d["materials"][0]["extensions"] = volume(json!({"thicknessFactor": 1.0, "attenuationDistance": 1e-30, "attenuationColor": [0.0, 2.0, 0.5]}));
+    let sigma = load(&d).unwrap().materials[0].absorption;
+    assert!(sigma.is_finite() && sigma.x > 1e30 && sigma.y == 0.0, "{sigma}");
+}
+
 /// KHR_materials_clearcoat's two factors, as Blender's exporter writes
 /// Coat Weight and Roughness: read, clamped, 0 where absent or not numbers
 /// (its textures: tests/textures.rs).

@@ -158,6 +158,37 @@ def test_a_tangent_node_goes_in_the_request(empty_scene):
     assert tangents() == ([], [])
 
 
+def test_a_volume_absorption_goes_in_the_request_or_is_named(empty_scene):
+    """A Volume Absorption on the Material Output's Volume goes in the
+    request (Color clamped to [0, 1], Density to ≥ 0; its render:
+    test_glass_vs_cycles.py); any other volume is named in a warning."""
+    build_scene(empty_scene)
+    red = bpy.data.materials["Red"]
+    red.node_tree.nodes["Principled BSDF"].inputs["Transmission Weight"].default_value = 1.0
+    output = next(n for n in red.node_tree.nodes if n.type == "OUTPUT_MATERIAL")
+
+    def volumes():
+        request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        return request.get("volume_absorption"), [w for w in warnings if "volume" in w]
+
+    assert volumes() == (None, [])
+    absorption = red.node_tree.nodes.new("ShaderNodeVolumeAbsorption")
+    absorption.inputs["Color"].default_value = (0.5, 1.5, 0.25, 1.0)
+    absorption.inputs["Density"].default_value = 3.0
+    red.node_tree.links.new(absorption.outputs["Volume"], output.inputs["Volume"])
+    assert volumes() == ([{"material": "Red", "color": [0.5, 1.0, 0.25], "density": 3.0}], [])
+    absorption.inputs["Density"].default_value = -2.0
+    assert volumes()[0][0]["density"] == 0.0
+    value = red.node_tree.nodes.new("ShaderNodeValue")
+    red.node_tree.links.new(value.outputs["Value"], absorption.inputs["Density"])
+    records, warnings = volumes()
+    assert records is None and warnings and warnings[0].startswith("Red: a volume other than a Volume Absorption"), warnings
+    scatter = red.node_tree.nodes.new("ShaderNodeVolumePrincipled")
+    red.node_tree.links.new(scatter.outputs["Volume"], output.inputs["Volume"])
+    records, warnings = volumes()
+    assert records is None and warnings and warnings[0].startswith("Red: "), warnings
+
+
 def test_ray_visibility_goes_in_the_request_or_is_named(empty_scene):
     """Objects hidden from the camera are listed in the request (their
     render: test_visibility_vs_cycles.py); visibility to other rays, which
