@@ -88,7 +88,7 @@ pub struct Features {
     /// Materials with some glass (KHR_materials_transmission).
     pub transmission: usize,
     /// Glass that absorbs inside (media.rs): paths track the medium they
-    /// are in, and no light subpaths are traced.
+    /// are in.
     pub absorbing: usize,
     /// Materials with a clear coat (KHR_materials_clearcoat).
     pub coat: usize,
@@ -139,7 +139,7 @@ impl Features {
             }
             f.alpha += m.has_alpha() as usize;
             f.transmission += m.is_transmissive() as usize;
-            f.absorbing += (m.is_transmissive() && m.absorption != crate::Vec3::ZERO) as usize;
+            f.absorbing += crate::media::absorbs(m) as usize;
             f.coat += m.is_coated() as usize;
             f.anisotropic += (m.anisotropy > 0.0) as usize;
             f.hidden_from_camera += m.hidden_from_camera as usize;

@@ -113,6 +113,8 @@ pub struct Context<'a> {
     pub bin_camera_rays: bool,
     /// `light_paths_pay`, found once when first asked.
     light_paths_pay: std::sync::OnceLock<bool>,
+    /// Some emitter lies inside an absorbing medium (media.rs).
+    emitters_in_media: bool,
 }
 
 impl<'a> Context<'a> {
@@ -122,7 +124,8 @@ impl<'a> Context<'a> {
         let (lamps, lamp_time) = Accel::build_subset(&scene.triangles, &lamps);
         let lights = Lights::new(scene);
         let features = Features::of(scene);
-        (Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default() }, surface_time + lamp_time)
+        let emitters_in_media = features.absorbing > 0 && media::emitters_inside(scene, &accel, &lights.triangles);
+        (Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default(), emitters_in_media }, surface_time + lamp_time)
     }
 
     /// The kernel these settings run on this scene.
@@ -145,8 +148,8 @@ impl<'a> Context<'a> {
     /// need emitting triangles to start from, MIS to weigh them, and room
     /// for a connection's two scattering events.
     pub fn traces_light_paths(&self, settings: &RenderSettings) -> bool {
-        // Not with absorbing media (media.rs).
-        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && self.features.absorbing == 0;
+        // Not from an emitter inside an absorbing medium (media.rs).
+        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && !self.emitters_in_media;
         possible
             && match settings.light_paths {
                 LightPaths::On => true,

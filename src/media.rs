@@ -12,11 +12,17 @@
 //! right refraction anyway.
 //!
 //! Shadow rays take the medium on their side of the surface they leave.
-//! Light subpaths are not traced in a scene with absorbing media
-//! (`Context::traces_light_paths`): an emitter inside one would need its
-//! subpaths attenuated, which nothing tells them.
+//!
+//! Light subpaths never enter a medium (they stop at glass), so those of
+//! an emitter outside every medium need nothing from this, and a camera
+//! path's joins to them from inside one are blocked by the glass between.
+//! An emitter inside a medium would need its subpaths absorbed, which
+//! nothing tells them: a scene with one traces none
+//! (`emitters_inside`, `Context::traces_light_paths`).
 
+use crate::accel::Accel;
 use crate::material::Material;
+use crate::scene::Scene;
 use crate::Vec3;
 
 /// The share of light left after a length `t` of a medium of absorption
@@ -67,6 +73,32 @@ impl Sides {
     pub fn transmittance(&self, cos_ng: f32, t: f32) -> Vec3 {
         transmittance(self.toward(cos_ng), t)
     }
+}
+
+/// Whether a material is glass that absorbs inside.
+#[inline]
+pub fn absorbs(m: &Material) -> bool {
+    m.is_transmissive() && m.absorption != Vec3::ZERO
+}
+
+/// Whether some of the emitting triangles `emitters` lies inside an
+/// absorbing medium, or is absorbing glass itself. From each one's
+/// centroid a ray along one fixed direction finds the nearest absorbing
+/// glass; meeting it from behind (a closed mesh's inside is behind its
+/// faces), the emitter is inside. One ray an emitter, at load, and only
+/// in a scene with absorbing glass.
+pub fn emitters_inside(scene: &Scene, surfaces: &Accel, emitters: &[u32]) -> bool {
+    let absorbing = |triangle: u32| absorbs(&scene.materials[scene.triangles[triangle as usize].material as usize]);
+    // Off every axis, so that it does not run along a box's faces.
+    let dir = Vec3::new(0.2673, 0.5345, 0.8018);
+    emitters.iter().any(|&e| {
+        if absorbing(e) {
+            return true;
+        }
+        let [a, b, c] = scene.triangles[e as usize].p();
+        let hit = surfaces.intersect_where((a + b + c) / 3.0, dir, f32::INFINITY, |t, _, _, _| absorbing(t));
+        hit.is_some_and(|h| scene.triangles[h.triangle as usize].cross().dot(dir) > 0.0)
+    })
 }
 
 #[cfg(test)]
