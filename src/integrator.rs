@@ -62,7 +62,7 @@ use crate::lights::{LightChoice, LightSample, Lights, Picked};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
 use crate::punctual::{PunctualKind, PunctualLight};
 use crate::material::Surface;
-use crate::media::{self, Sides};
+use crate::media::{self, Media, Sides};
 use crate::render::{LightPaths, RenderSettings};
 use crate::rng::Rng;
 use crate::sampling::Frame;
@@ -1120,11 +1120,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     // the camera ray's own, on a transparent film, and with Transparent
     // Glass the rays after glass alone.
     let mut see_through = settings.transparent;
-    // The absorbing medium the ray travels in (media.rs): none for the
-    // camera's, and always none in a scene without one (a kernel without
-    // glass has no code for it).
+    // The absorbing media the ray travels in (media.rs): none for the
+    // camera's, and always none in a scene without them (a kernel without
+    // glass has no code for them).
     let absorbing = B::GLASS && ctx.features.absorbing > 0;
-    let mut medium = Vec3::ZERO;
+    let mut media = Media::default();
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
     for depth in 0..=max_depth {
@@ -1160,7 +1160,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         };
         // What the path keeps of light reaching it from a distance t along
         // this ray, in an absorbing medium.
-        let absorbed = |beta: Vec3, t: f32| if absorbing { beta * media::transmittance(medium, t) } else { beta };
+        let absorbed = |beta: Vec3, t: f32| if absorbing { beta * media::transmittance(media.sigma, t) } else { beta };
         if let Some(lamp) = lamp {
             let tri = &ctx.scene.triangles[lamp.triangle as usize];
             let material = &ctx.scene.materials[tri.material as usize];
@@ -1172,7 +1172,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
-            l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, settings.mis, if absorbing { medium } else { Vec3::ZERO });
+            l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, settings.mis, if absorbing { media.sigma } else { Vec3::ZERO });
         }
         let Some(hit) = hit else {
             // Film › Transparent: the camera does not see the World (it
@@ -1190,7 +1190,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         beta = absorbed(beta, hit.t);
         let si = SurfaceHit::new(ctx.scene, &hit, d);
         let material = &ctx.scene.materials[si.material as usize];
-        let sides = absorbing.then(|| Sides::at(medium, material, si.front_face));
+        let sides = absorbing.then(|| Sides::at(&media, &ctx.scene.materials, si.material, si.front_face));
         if AREA && seen_kept {
             let mut le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
             if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
@@ -1274,8 +1274,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         let Some(Step { sample: s, wi, origin, beta: next_beta }) = step else { break };
         beta = next_beta;
-        if let Some(sides) = sides {
-            medium = sides.toward(wi.dot(si.ng));
+        if let Some(sides) = &sides {
+            media = *sides.toward(wi.dot(si.ng));
         }
         see_through = see_through && settings.transparent_glass.is_some_and(|threshold| s.wi.z < 0.0 && si.surface.roughness <= threshold);
         o = origin;

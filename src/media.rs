@@ -4,12 +4,14 @@
 //! crosses a length t of it keeps exp(−σ_a·t) of itself, channel by
 //! channel (Beer–Lambert); nothing scatters inside.
 //!
-//! A path is in one medium at a time. Refracted into a mesh through a
-//! front face, it travels in the mesh's medium; refracted out through a
-//! back face, in none. Cycles keeps a stack of volumes instead. The two
-//! agree wherever absorbing meshes neither overlap nor nest: a liquid in
-//! a glass needs a gap of air between them, as it does in Cycles for the
-//! right refraction anyway.
+//! A path keeps the media it is in, as Cycles keeps its volume stack:
+//! refracted into a mesh of absorbing glass through a front face, it adds
+//! the material's medium; refracted out through a back face, it drops it.
+//! Where meshes overlap or nest — a liquid modelled into its glass's
+//! wall, an ice cube of clear glass in it — their σ_a add up, as Cycles
+//! adds the volumes of its stack (clear glass adds nothing and leaves the
+//! liquid's in place). Media are told apart by material; a path keeps up
+//! to `Media::DEPTH` of them.
 //!
 //! Shadow rays take the medium on their side of the surface they leave.
 //!
@@ -33,45 +35,79 @@ pub fn transmittance(sigma: Vec3, t: f32) -> Vec3 {
     Vec3::select(sigma.cmpgt(Vec3::ZERO), (-sigma * t).exp(), Vec3::ONE)
 }
 
+/// The absorbing media a path is in: the materials of the meshes it has
+/// entered and not left, and their summed σ_a.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Media {
+    /// Σ σ_a of `materials`, per metre.
+    pub sigma: Vec3,
+    materials: [u32; Media::DEPTH],
+    len: usize,
+}
+
+impl Media {
+    /// Media a path keeps at once; one entered beyond them is left out.
+    pub const DEPTH: usize = 4;
+
+    /// The media past a surface of material `index` the path crosses, into
+    /// its mesh through a front face or out of it through a back face.
+    /// Only absorbing glass changes them.
+    pub fn crossing(&self, materials: &[Material], index: u32, front_face: bool) -> Media {
+        if !absorbs(&materials[index as usize]) {
+            return *self;
+        }
+        let mut next = *self;
+        let at = self.materials[..self.len].iter().position(|&m| m == index);
+        match (front_face, at) {
+            (true, None) if self.len < Media::DEPTH => {
+                next.materials[self.len] = index;
+                next.len += 1;
+            }
+            (false, Some(i)) => {
+                next.materials.copy_within(i + 1..self.len, i);
+                next.len -= 1;
+            }
+            _ => return next,
+        }
+        next.sigma = next.materials[..next.len].iter().map(|&m| materials[m as usize].absorption).sum();
+        next
+    }
+}
+
 /// The media on the two sides of a surface point a path reached.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sides {
     /// The side the path came from (the ray-facing geometric normal's).
-    pub here: Vec3,
-    /// The other side.
-    pub beyond: Vec3,
+    pub here: Media,
+    /// The other side: past glass, the media crossing it gives; past an
+    /// opaque surface, those here (a ray that slips below it, a shading
+    /// normal's bounce, has not entered anything).
+    pub beyond: Media,
 }
 
 impl Sides {
-    /// At a point of `material` the path reached in the medium `here`, on
-    /// the mesh's front face or its back face. Beyond an opaque surface is
-    /// where the path is: a ray that slips below it (a shading normal's
-    /// bounce) has not entered anything.
+    /// At a point of material `index` the path reached in the media
+    /// `here`, on its mesh's front face or its back face.
     #[inline]
-    pub fn at(here: Vec3, material: &Material, front_face: bool) -> Self {
-        let beyond = match (material.is_transmissive(), front_face) {
-            (false, _) => here,
-            (true, true) => material.absorption,
-            (true, false) => Vec3::ZERO,
-        };
-        Sides { here, beyond }
+    pub fn at(here: &Media, materials: &[Material], index: u32, front_face: bool) -> Self {
+        Sides { here: *here, beyond: here.crossing(materials, index, front_face) }
     }
 
-    /// The medium a ray leaving along a direction at cosine `cos_ng` to
-    /// the ray-facing geometric normal travels in.
+    /// The media a ray leaving along a direction at cosine `cos_ng` to the
+    /// ray-facing geometric normal travels in.
     #[inline]
-    pub fn toward(&self, cos_ng: f32) -> Vec3 {
+    pub fn toward(&self, cos_ng: f32) -> &Media {
         if cos_ng >= 0.0 {
-            self.here
+            &self.here
         } else {
-            self.beyond
+            &self.beyond
         }
     }
 
     /// What a shadow ray leaving along `cos_ng` keeps over the length `t`.
     #[inline]
     pub fn transmittance(&self, cos_ng: f32, t: f32) -> Vec3 {
-        transmittance(self.toward(cos_ng), t)
+        transmittance(self.toward(cos_ng).sigma, t)
     }
 }
 
@@ -123,16 +159,30 @@ mod tests {
 
     #[test]
     fn a_path_enters_through_the_front_and_leaves_through_the_back() {
-        let sigma = Vec3::new(0.1, 0.2, 0.3);
-        let glass = Material { transmission: 1.0, metallic: 0.0, absorption: sigma, ..Material::default() };
-        let entering = Sides::at(Vec3::ZERO, &glass, true);
-        assert_eq!((entering.toward(0.5), entering.toward(-0.5)), (Vec3::ZERO, sigma));
-        let leaving = Sides::at(sigma, &glass, false);
-        assert_eq!((leaving.toward(0.5), leaving.toward(-0.5)), (sigma, Vec3::ZERO));
+        let (wine, glass) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.0, 0.0, 1.0));
+        let absorbing = |absorption| Material { transmission: 1.0, metallic: 0.0, absorption, ..Material::default() };
+        let materials = [absorbing(wine), absorbing(glass), absorbing(Vec3::ZERO), Material { metallic: 0.0, ..Material::default() }];
+        let (wine_id, glass_id, ice, stone) = (0, 1, 2, 3);
+        let air = Media::default();
+        let entering = Sides::at(&air, &materials, wine_id, true);
+        assert_eq!((entering.toward(0.5).sigma, entering.toward(-0.5).sigma), (Vec3::ZERO, wine));
+        let in_wine = *entering.toward(-0.5);
+        let leaving = Sides::at(&in_wine, &materials, wine_id, false);
+        assert_eq!((leaving.toward(0.5).sigma, *leaving.toward(-0.5)), (wine, air));
         // An opaque surface inside the medium: both sides are in it.
-        let stone = Material { metallic: 0.0, ..Material::default() };
-        let inside = Sides::at(sigma, &stone, true);
-        assert_eq!((inside.toward(0.5), inside.toward(-0.5)), (sigma, sigma));
-        assert_eq!(inside.transmittance(0.5, 2.0), transmittance(sigma, 2.0));
+        let inside = Sides::at(&in_wine, &materials, stone, true);
+        assert_eq!((inside.toward(0.5), inside.toward(-0.5)), (&in_wine, &in_wine));
+        assert_eq!(inside.transmittance(0.5, 2.0), transmittance(wine, 2.0));
+        // The wine modelled into its glass's wall: in both there, the
+        // glass's medium left while still in the wine; clear ice in the
+        // wine keeps the wine's; a back face never entered changes nothing.
+        let both = air.crossing(&materials, glass_id, true).crossing(&materials, wine_id, true);
+        assert_eq!(both.sigma, wine + glass);
+        let wine_only = both.crossing(&materials, glass_id, false);
+        assert_eq!(wine_only.sigma, wine);
+        assert_eq!(wine_only.crossing(&materials, ice, true), wine_only);
+        assert_eq!(wine_only.crossing(&materials, glass_id, false), wine_only);
+        assert_eq!(wine_only.crossing(&materials, wine_id, true), wine_only, "entered twice, counted once");
+        assert_eq!(wine_only.crossing(&materials, wine_id, false), air);
     }
 }
