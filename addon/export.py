@@ -271,6 +271,11 @@ def render_request(depsgraph, job, width, height):
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
+    diffuse, other_surfaces, rough_diffuse = surface_shaders(depsgraph)
+    if other_surfaces:
+        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, Diffuse BSDF or Emission cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
+    if rough_diffuse:
+        warnings.append(f"{', '.join(rough_diffuse)}: a Diffuse BSDF's Roughness and Normal are not rendered by Glint (Lambert, as at Roughness 0)")
     absorption, other_volumes = volume_absorption(depsgraph)
     if other_volumes:
         warnings.append(f"{', '.join(other_volumes)}: a volume other than a Volume Absorption node with unlinked Color and Density is not rendered by Glint")
@@ -310,6 +315,8 @@ def render_request(depsgraph, job, width, height):
         request["coat_tints"] = tints
     if absorption:
         request["volume_absorption"] = absorption
+    if diffuse:
+        request["diffuse_materials"] = diffuse
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
     if settings.use_adaptive_sampling:
@@ -443,7 +450,7 @@ def coat_settings(depsgraph):
             if not weight.is_linked and weight.default_value <= 0.0:
                 continue
             tint = node.inputs["Coat Tint"]
-            rgb = [min(max(c, 0.0), 1.0) for c in tint.default_value[:3]]
+            rgb = unit_rgb(tint)
             if not tint.is_linked and rgb != [1.0, 1.0, 1.0]:
                 tints.append({"material": m.name, "tint": rgb})
             ior = node.inputs["Coat IOR"]
@@ -451,6 +458,56 @@ def coat_settings(depsgraph):
                 iors.append(m.name)
             break
     return tints, sorted(set(iors))
+
+
+def fed_outputs(depsgraph, name):
+    """(material, input, node feeding it) for each rendered material, by
+    name, whose Material Output that Cycles renders with has its input
+    `name` (Surface, Volume) linked."""
+    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+        outputs = [n for n in m.node_tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output and n.target in {"ALL", "CYCLES"}]
+        socket = outputs[0].inputs[name] if outputs else None
+        if socket is not None and socket.is_linked:
+            yield m, socket, socket.links[0].from_node
+
+
+def unit_rgb(socket):
+    """A colour input's value, each channel clamped to [0, 1]."""
+    return [min(max(c, 0.0), 1.0) for c in socket.default_value[:3]]
+
+
+def upstream(socket):
+    """Every node that feeds this input, directly or through others."""
+    found, stack = [], [socket]
+    while stack:
+        for link in stack.pop().links:
+            node = link.from_node
+            if node not in found:
+                found.append(node)
+                stack.extend(i for i in node.inputs if i.is_linked)
+    return found
+
+
+def surface_shaders(depsgraph):
+    """What the exporter cannot write of surfaces without a Principled BSDF
+    (it writes glTF's default material, a white rough metal): a Diffuse
+    BSDF straight into the Material Output with an unlinked Color, for the
+    request (Lambert in that colour, clamped to [0, 1]: Cycles' Diffuse
+    BSDF at Roughness 0); the names of materials with other surfaces
+    (Glossy, Glass, Mix Shader without a Principled BSDF, …), and those of
+    Diffuse BSDFs whose Roughness or Normal Glint leaves out."""
+    records, others, rough = [], [], []
+    for m, surface, node in fed_outputs(depsgraph, "Surface"):
+        if node.type in {"BSDF_PRINCIPLED", "EMISSION"} or any(n.type == "BSDF_PRINCIPLED" for n in upstream(surface)):
+            continue
+        if node.type != "BSDF_DIFFUSE" or node.inputs["Color"].is_linked:
+            others.append(m.name)
+            continue
+        records.append({"material": m.name, "color": unit_rgb(node.inputs["Color"])})
+        roughness = node.inputs["Roughness"]
+        if roughness.is_linked or roughness.default_value > 0.0 or node.inputs["Normal"].is_linked:
+            rough.append(m.name)
+    return records, others, rough
 
 
 def volume_absorption(depsgraph):
@@ -462,18 +519,12 @@ def volume_absorption(depsgraph):
     inputs), which Glint does not render. The exporter writes
     KHR_materials_volume only from a glTF Material Output node."""
     records, others = [], []
-    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
-        outputs = [n for n in m.node_tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output and n.target in {"ALL", "CYCLES"}]
-        volume = outputs[0].inputs["Volume"] if outputs else None
-        if volume is None or not volume.is_linked:
-            continue
-        node = volume.links[0].from_node
+    for m, _, node in fed_outputs(depsgraph, "Volume"):
         color, density = (node.inputs.get("Color"), node.inputs.get("Density")) if node.type == "VOLUME_ABSORPTION" else (None, None)
         if color is None or density is None or color.is_linked or density.is_linked:
             others.append(m.name)
             continue
-        rgb = [min(max(c, 0.0), 1.0) for c in color.default_value[:3]]
-        records.append({"material": m.name, "color": rgb, "density": max(float(density.default_value), 0.0)})
+        records.append({"material": m.name, "color": unit_rgb(color), "density": max(float(density.default_value), 0.0)})
     return records, others
 
 

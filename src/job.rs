@@ -11,7 +11,7 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{AnisotropyTangent, CoatTint, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
+use crate::request::{AnisotropyTangent, CoatTint, DiffuseMaterial, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -122,6 +122,7 @@ pub struct SceneExtras<'a> {
     pub single_scatter_materials: &'a [String],
     pub coat_tints: &'a [CoatTint],
     pub volume_absorption: &'a [VolumeAbsorption],
+    pub diffuse_materials: &'a [DiffuseMaterial],
     pub default_surface: Option<[f32; 3]>,
     pub light_sizes: &'a [LightSize],
     /// The camera's shift and depth of field.
@@ -133,7 +134,7 @@ pub struct SceneExtras<'a> {
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, diffuse_materials: &r.diffuse_materials, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
     }
 }
 
@@ -233,6 +234,17 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
             m.absorption = (Vec3::ONE - Vec3::from(*color)) * *density;
         }
     }
+    for DiffuseMaterial { material, color } in extras.diffuse_materials {
+        if color.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) {
+            return Err(format!("{name}: diffuse colour of '{material}' must have channels in [0, 1]"));
+        }
+        // Blender's Diffuse BSDF at Roughness 0 is Lambert's: no
+        // specular layer (KHR_materials_specular 0), no metal, no glass,
+        // no coat; its emission, none, stays.
+        for m in scene.materials.iter_mut().filter(|m| &m.name == material) {
+            (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (Vec3::from(*color), 0.0, 0.0, 0.0, 0.0);
+        }
+    }
     if let (Some(colour), Some(id)) = (extras.default_surface, scene.default_material) {
         let m = &mut scene.materials[id as usize];
         (m.base_color, m.metallic, m.specular) = (Vec3::from(colour), 0.0, 0.0);
@@ -317,6 +329,21 @@ mod tests {
             let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { volume_absorption: &bad, ..SceneExtras::default() }).err().unwrap();
             assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
         }
+    }
+
+    /// A request's Diffuse BSDF makes the material it names Lambertian in
+    /// its colour (glTF's default white metal before); a colour outside
+    /// [0, 1] is one line naming the file and the material.
+    #[test]
+    fn diffuse_materials_become_lambertian_and_bad_ones_are_errors() {
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        let diffuse = [DiffuseMaterial { material: "red".into(), color: [0.5, 0.25, 0.125] }];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { diffuse_materials: &diffuse, ..SceneExtras::default() }).unwrap();
+        let red = job.scene.materials.iter().find(|m| m.name == "red").unwrap();
+        assert!(red.is_pure_lambert() && red.base_color == Vec3::new(0.5, 0.25, 0.125), "{red:?}");
+        let bad = [DiffuseMaterial { material: "red".into(), color: [0.5, -0.1, 0.5] }];
+        let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { diffuse_materials: &bad, ..SceneExtras::default() }).err().unwrap();
+        assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
     }
 
     /// A Tangent node in the request reaches its material; one naming no

@@ -15,6 +15,7 @@
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "coat_tints": [ { "material": "Car paint", "tint": [0.6, 0.1, 0.1] } ],
 //!   "volume_absorption": [ { "material": "Wine", "color": [0.8, 0.1, 0.2], "density": 12 } ],
+//!   "diffuse_materials": [ { "material": "Clay", "color": [0.6, 0.4, 0.3] } ],
 //!   "hidden_from_camera": [ "Bounce card" ],
 //!   "anisotropy_tangents": [ { "material": "Brushed", "uv_map": 0 },
 //!     { "material": "Dial", "radial_axis": "X" } ],
@@ -48,6 +49,16 @@ pub struct VolumeAbsorption {
     pub material: String,
     pub color: [f32; 3],
     pub density: f32,
+}
+
+/// A material whose surface is Blender's Diffuse BSDF, which glTF cannot
+/// carry (the exporter writes glTF's default, a white metal): its Color,
+/// linear Rec.709, each channel in [0, 1].
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DiffuseMaterial {
+    pub material: String,
+    pub color: [f32; 3],
 }
 
 /// Largest request file read (area lights are ~300 bytes each).
@@ -101,6 +112,9 @@ pub struct RenderRequest {
     /// the glTF file's KHR_materials_volume, which Blender's exporter
     /// writes only from a glTF Material Output node).
     pub volume_absorption: Vec<VolumeAbsorption>,
+    /// Materials, by name, whose surface is a Diffuse BSDF: rendered
+    /// Lambertian in its colour.
+    pub diffuse_materials: Vec<DiffuseMaterial>,
     pub area_lights: Vec<AreaLight>,
     /// Diffuse colour of primitives without a material, instead of glTF's
     /// default (white metal): Cycles renders them with its default surface,

@@ -189,6 +189,44 @@ def test_a_volume_absorption_goes_in_the_request_or_is_named(empty_scene):
     assert records is None and warnings and warnings[0].startswith("Red: "), warnings
 
 
+def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty_scene):
+    """A Diffuse BSDF straight into the output goes in the request (its
+    render: test_materials_vs_cycles.py), with a warning where its
+    Roughness is not 0; a surface glTF cannot carry otherwise (a Glossy
+    BSDF) is named in a warning; a Mix Shader with a Principled BSDF in it
+    is the exporter's to write, and an Emission shader goes through glTF."""
+    build_scene(empty_scene)
+    red = bpy.data.materials["Red"]
+    nodes, links = red.node_tree.nodes, red.node_tree.links
+    output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
+    principled = nodes["Principled BSDF"]
+
+    def surfaces():
+        request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        return request.get("diffuse_materials"), [w for w in warnings if "Diffuse BSDF" in w or "Principled BSDF" in w]
+
+    assert surfaces() == (None, [])
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.5, 1.5, 0.25, 1.0)
+    links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    assert surfaces() == ([{"material": "Red", "color": [0.5, 1.0, 0.25]}], [])
+    diffuse.inputs["Roughness"].default_value = 0.5
+    records, warnings = surfaces()
+    assert records and len(warnings) == 1 and warnings[0].startswith("Red: a Diffuse BSDF's Roughness"), warnings
+    glossy = nodes.new("ShaderNodeBsdfGlossy")
+    links.new(glossy.outputs["BSDF"], output.inputs["Surface"])
+    records, warnings = surfaces()
+    assert records is None and len(warnings) == 1 and warnings[0].startswith("Red: a surface without a Principled BSDF"), warnings
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(principled.outputs["BSDF"], mix.inputs[1])
+    links.new(glossy.outputs["BSDF"], mix.inputs[2])
+    links.new(mix.outputs["Shader"], output.inputs["Surface"])
+    assert surfaces() == (None, [])
+    emission = nodes.new("ShaderNodeEmission")
+    links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    assert surfaces() == (None, [])
+
+
 def test_ray_visibility_goes_in_the_request_or_is_named(empty_scene):
     """Objects hidden from the camera are listed in the request (their
     render: test_visibility_vs_cycles.py); visibility to other rays, which
