@@ -271,11 +271,11 @@ def render_request(depsgraph, job, width, height):
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
-    diffuse, other_surfaces, rough_diffuse = surface_shaders(depsgraph)
+    bsdf_nodes, other_surfaces, approximate, node_single_scatter = surface_shaders(depsgraph)
     if other_surfaces:
-        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, Diffuse BSDF or Emission cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
-    if rough_diffuse:
-        warnings.append(f"{', '.join(rough_diffuse)}: a Diffuse BSDF's Roughness and Normal are not rendered by Glint (Lambert, as at Roughness 0)")
+        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy or Glass BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
+    if approximate:
+        warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF at Roughness 0, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX, no Normal: exact; otherwise not)")
     absorption, other_volumes = volume_absorption(depsgraph)
     if other_volumes:
         warnings.append(f"{', '.join(other_volumes)}: a volume other than a Volume Absorption node with unlinked Color and Density is not rendered by Glint")
@@ -307,7 +307,7 @@ def render_request(depsgraph, job, width, height):
     if environment:
         request["environment"] = environment
     single_scatter = sorted(
-        m.name for m in used_materials(depsgraph) if any(n.type == "BSDF_PRINCIPLED" and n.distribution == "GGX" for n in m.node_tree.nodes)
+        {m.name for m in used_materials(depsgraph) if any(n.type == "BSDF_PRINCIPLED" and n.distribution == "GGX" for n in m.node_tree.nodes)} | set(node_single_scatter)
     )
     if single_scatter:
         request["single_scatter_materials"] = single_scatter
@@ -315,8 +315,8 @@ def render_request(depsgraph, job, width, height):
         request["coat_tints"] = tints
     if absorption:
         request["volume_absorption"] = absorption
-    if diffuse:
-        request["diffuse_materials"] = diffuse
+    if bsdf_nodes:
+        request["bsdf_nodes"] = bsdf_nodes
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
     if settings.use_adaptive_sampling:
@@ -490,24 +490,44 @@ def upstream(socket):
 
 def surface_shaders(depsgraph):
     """What the exporter cannot write of surfaces without a Principled BSDF
-    (it writes glTF's default material, a white rough metal): a Diffuse
-    BSDF straight into the Material Output with an unlinked Color, for the
-    request (Lambert in that colour, clamped to [0, 1]: Cycles' Diffuse
-    BSDF at Roughness 0); the names of materials with other surfaces
-    (Glossy, Glass, Mix Shader without a Principled BSDF, …), and those of
-    Diffuse BSDFs whose Roughness or Normal Glint leaves out."""
-    records, others, rough = [], [], []
+    (it writes glTF's default material, a white rough metal): a Diffuse,
+    Glossy or Glass BSDF straight into the Material Output with unlinked
+    Color, Roughness and IOR, for the request (colours clamped to [0, 1], an
+    IOR to ≥ 1); the names of materials with other surfaces (a Mix Shader
+    without a Principled BSDF, a Translucent BSDF, …); those of nodes Glint
+    renders only approximately (Diffuse Roughness above 0, a coloured or
+    anisotropic Glossy, a coloured Glass, a Beckmann or Ashikhmin-Shirley
+    distribution, an IOR below 1, a linked Normal); and those whose node
+    asks for GGX without multiple scattering."""
+    kinds = {"BSDF_DIFFUSE": "diffuse", "BSDF_GLOSSY": "glossy", "BSDF_GLASS": "glass"}
+    records, others, approximate, single_scatter = [], [], [], []
     for m, surface, node in fed_outputs(depsgraph, "Surface"):
         if node.type in {"BSDF_PRINCIPLED", "EMISSION"} or any(n.type == "BSDF_PRINCIPLED" for n in upstream(surface)):
             continue
-        if node.type != "BSDF_DIFFUSE" or node.inputs["Color"].is_linked:
+        inputs = [node.inputs[name] for name in ("Color", "Roughness", "IOR") if name in node.inputs]
+        if node.type not in kinds or any(i.is_linked for i in inputs):
             others.append(m.name)
             continue
-        records.append({"material": m.name, "color": unit_rgb(node.inputs["Color"])})
-        roughness = node.inputs["Roughness"]
-        if roughness.is_linked or roughness.default_value > 0.0 or node.inputs["Normal"].is_linked:
-            rough.append(m.name)
-    return records, others, rough
+        record = {"material": m.name, "node": kinds[node.type], "color": unit_rgb(node.inputs["Color"])}
+        roughness = node.inputs["Roughness"].default_value
+        exact = not node.inputs["Normal"].is_linked
+        if node.type == "BSDF_DIFFUSE":
+            exact = exact and roughness == 0.0
+        else:
+            record["roughness"] = min(max(float(roughness), 0.0), 1.0)
+            exact = exact and record["color"] == [1.0, 1.0, 1.0] and node.distribution in {"GGX", "MULTI_GGX"}
+            if node.distribution == "GGX":
+                single_scatter.append(m.name)
+        if node.type == "BSDF_GLOSSY":
+            exact = exact and node.inputs["Anisotropy"].default_value == 0.0 and not node.inputs["Anisotropy"].is_linked
+        if node.type == "BSDF_GLASS":
+            ior = float(node.inputs["IOR"].default_value)
+            record["ior"] = max(ior, 1.0)
+            exact = exact and ior >= 1.0
+        records.append(record)
+        if not exact:
+            approximate.append(m.name)
+    return records, others, approximate, single_scatter
 
 
 def volume_absorption(depsgraph):

@@ -11,7 +11,7 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{AnisotropyTangent, CoatTint, DiffuseMaterial, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
+use crate::request::{AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -122,7 +122,7 @@ pub struct SceneExtras<'a> {
     pub single_scatter_materials: &'a [String],
     pub coat_tints: &'a [CoatTint],
     pub volume_absorption: &'a [VolumeAbsorption],
-    pub diffuse_materials: &'a [DiffuseMaterial],
+    pub bsdf_nodes: &'a [BsdfNode],
     pub default_surface: Option<[f32; 3]>,
     pub light_sizes: &'a [LightSize],
     /// The camera's shift and depth of field.
@@ -134,7 +134,7 @@ pub struct SceneExtras<'a> {
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, diffuse_materials: &r.diffuse_materials, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, bsdf_nodes: &r.bsdf_nodes, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
     }
 }
 
@@ -166,6 +166,30 @@ fn check_radiance(scene: &Scene) -> Result<(), String> {
     }
     if let Some(env) = scene.environment.as_ref().filter(|e| too_bright(e.brightest)) {
         return Err(format!("the environment image's brightest texel × strength is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", env.brightest));
+    }
+    Ok(())
+}
+
+/// The Principled BSDF that renders a plain BSDF node as Cycles does:
+/// Diffuse (at Roughness 0) is Lambert's, no specular layer
+/// (KHR_materials_specular 0); a white Glossy is a white metal (F = 1 at
+/// every angle, as the node's constant colour); a clear Glass is
+/// Principled glass of its IOR. A coloured Glossy or Glass is that colour's
+/// metal or tinted glass, which the add-on names as approximate. No coat;
+/// emission, none in such a material, stays.
+fn node_material(materials: &mut [crate::material::Material], node: &BsdfNode) -> Result<(), String> {
+    let BsdfNode { material, color, roughness, ior, .. } = node;
+    if color.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) || !(0.0..=1.0).contains(roughness) || !(ior.is_finite() && *ior >= 1.0) {
+        return Err(format!("BSDF node of '{material}' must have colour channels and roughness in [0, 1] and an IOR ≥ 1"));
+    }
+    let (metallic, specular, transmission) = match node.node {
+        BsdfNodeKind::Diffuse => (0.0, 0.0, 0.0),
+        BsdfNodeKind::Glossy => (1.0, 1.0, 0.0),
+        BsdfNodeKind::Glass => (0.0, 1.0, 1.0),
+    };
+    for m in materials.iter_mut().filter(|m| &m.name == material) {
+        (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (Vec3::from(*color), metallic, specular, transmission, 0.0);
+        (m.roughness, m.ior, m.specular_tint) = (*roughness, *ior, Vec3::ONE);
     }
     Ok(())
 }
@@ -234,16 +258,8 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
             m.absorption = (Vec3::ONE - Vec3::from(*color)) * *density;
         }
     }
-    for DiffuseMaterial { material, color } in extras.diffuse_materials {
-        if color.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) {
-            return Err(format!("{name}: diffuse colour of '{material}' must have channels in [0, 1]"));
-        }
-        // Blender's Diffuse BSDF at Roughness 0 is Lambert's: no
-        // specular layer (KHR_materials_specular 0), no metal, no glass,
-        // no coat; its emission, none, stays.
-        for m in scene.materials.iter_mut().filter(|m| &m.name == material) {
-            (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (Vec3::from(*color), 0.0, 0.0, 0.0, 0.0);
-        }
+    for node in extras.bsdf_nodes {
+        node_material(&mut scene.materials, node).map_err(|e| format!("{name}: {e}"))?;
     }
     if let (Some(colour), Some(id)) = (extras.default_surface, scene.default_material) {
         let m = &mut scene.materials[id as usize];
@@ -331,19 +347,26 @@ mod tests {
         }
     }
 
-    /// A request's Diffuse BSDF makes the material it names Lambertian in
-    /// its colour (glTF's default white metal before); a colour outside
-    /// [0, 1] is one line naming the file and the material.
+    /// A request's BSDF node makes the material it names what Cycles
+    /// renders for it (glTF's default white metal before): Diffuse pure
+    /// Lambert, Glossy a metal, Glass glass of its IOR; a colour or
+    /// roughness outside [0, 1] or an IOR below 1 is one line naming the
+    /// file and the material.
     #[test]
-    fn diffuse_materials_become_lambertian_and_bad_ones_are_errors() {
+    fn bsdf_nodes_reach_their_materials_and_bad_ones_are_errors() {
         let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
-        let diffuse = [DiffuseMaterial { material: "red".into(), color: [0.5, 0.25, 0.125] }];
-        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { diffuse_materials: &diffuse, ..SceneExtras::default() }).unwrap();
-        let red = job.scene.materials.iter().find(|m| m.name == "red").unwrap();
+        let node = |material: &str, node, color: [f32; 3], roughness, ior| BsdfNode { material: material.into(), node, color, roughness, ior };
+        let nodes = [node("red", BsdfNodeKind::Diffuse, [0.5, 0.25, 0.125], 0.0, 1.5), node("green", BsdfNodeKind::Glossy, [1.0; 3], 0.3, 1.5), node("white", BsdfNodeKind::Glass, [1.0; 3], 0.1, 1.33)];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { bsdf_nodes: &nodes, ..SceneExtras::default() }).unwrap();
+        let named = |name: &str| job.scene.materials.iter().find(|m| m.name == name).unwrap().clone();
+        let (red, green, white) = (named("red"), named("green"), named("white"));
         assert!(red.is_pure_lambert() && red.base_color == Vec3::new(0.5, 0.25, 0.125), "{red:?}");
-        let bad = [DiffuseMaterial { material: "red".into(), color: [0.5, -0.1, 0.5] }];
-        let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { diffuse_materials: &bad, ..SceneExtras::default() }).err().unwrap();
-        assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+        assert!(green.metallic == 1.0 && green.roughness == 0.3 && green.base_color == Vec3::ONE && !green.is_transmissive(), "{green:?}");
+        assert!(white.is_transmissive() && white.ior == 1.33 && white.roughness == 0.1 && white.metallic == 0.0, "{white:?}");
+        for bad in [node("red", BsdfNodeKind::Diffuse, [0.5, -0.1, 0.5], 0.0, 1.5), node("red", BsdfNodeKind::Glossy, [0.5; 3], 1.5, 1.5), node("red", BsdfNodeKind::Glass, [0.5; 3], 0.0, 0.9), node("red", BsdfNodeKind::Glass, [0.5; 3], f32::NAN, 1.5)] {
+            let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { bsdf_nodes: &[bad], ..SceneExtras::default() }).err().unwrap();
+            assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+        }
     }
 
     /// A Tangent node in the request reaches its material; one naming no

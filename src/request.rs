@@ -15,7 +15,8 @@
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "coat_tints": [ { "material": "Car paint", "tint": [0.6, 0.1, 0.1] } ],
 //!   "volume_absorption": [ { "material": "Wine", "color": [0.8, 0.1, 0.2], "density": 12 } ],
-//!   "diffuse_materials": [ { "material": "Clay", "color": [0.6, 0.4, 0.3] } ],
+//!   "bsdf_nodes": [ { "material": "Clay", "node": "diffuse", "color": [0.6, 0.4, 0.3] },
+//!     { "material": "Window", "node": "glass", "color": [1, 1, 1], "roughness": 0, "ior": 1.45 } ],
 //!   "hidden_from_camera": [ "Bounce card" ],
 //!   "anisotropy_tangents": [ { "material": "Brushed", "uv_map": 0 },
 //!     { "material": "Dial", "radial_axis": "X" } ],
@@ -51,14 +52,35 @@ pub struct VolumeAbsorption {
     pub density: f32,
 }
 
-/// A material whose surface is Blender's Diffuse BSDF, which glTF cannot
-/// carry (the exporter writes glTF's default, a white metal): its Color,
-/// linear Rec.709, each channel in [0, 1].
+/// Blender's plain BSDF nodes, which glTF cannot carry.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum BsdfNodeKind {
+    Diffuse,
+    Glossy,
+    Glass,
+}
+
+/// A material whose surface is one of Blender's plain BSDF nodes (the
+/// exporter writes glTF's default material, a white rough metal, for it):
+/// its Color, linear Rec.709, each channel in [0, 1]; Roughness in [0, 1]
+/// (Glossy and Glass); IOR ≥ 1 (Glass).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub struct DiffuseMaterial {
+pub struct BsdfNode {
     pub material: String,
+    pub node: BsdfNodeKind,
     pub color: [f32; 3],
+    #[serde(default)]
+    pub roughness: f32,
+    #[serde(default = "BsdfNode::default_ior")]
+    pub ior: f32,
+}
+
+impl BsdfNode {
+    fn default_ior() -> f32 {
+        1.5
+    }
 }
 
 /// Largest request file read (area lights are ~300 bytes each).
@@ -112,9 +134,9 @@ pub struct RenderRequest {
     /// the glTF file's KHR_materials_volume, which Blender's exporter
     /// writes only from a glTF Material Output node).
     pub volume_absorption: Vec<VolumeAbsorption>,
-    /// Materials, by name, whose surface is a Diffuse BSDF: rendered
-    /// Lambertian in its colour.
-    pub diffuse_materials: Vec<DiffuseMaterial>,
+    /// Materials, by name, whose surface is a Diffuse, Glossy or Glass
+    /// BSDF node.
+    pub bsdf_nodes: Vec<BsdfNode>,
     pub area_lights: Vec<AreaLight>,
     /// Diffuse colour of primitives without a material, instead of glTF's
     /// default (white metal): Cycles renders them with its default surface,

@@ -190,9 +190,10 @@ def test_a_volume_absorption_goes_in_the_request_or_is_named(empty_scene):
 
 
 def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty_scene):
-    """A Diffuse BSDF straight into the output goes in the request (its
-    render: test_materials_vs_cycles.py), with a warning where its
-    Roughness is not 0; a surface glTF cannot carry otherwise (a Glossy
+    """A Diffuse, Glossy or Glass BSDF straight into the output goes in the
+    request (their renders: test_materials_vs_cycles.py,
+    test_glass_vs_cycles.py), with a warning where Glint renders it only
+    approximately; a surface glTF cannot carry otherwise (a Translucent
     BSDF) is named in a warning; a Mix Shader with a Principled BSDF in it
     is the exporter's to write, and an Emission shader goes through glTF."""
     build_scene(empty_scene)
@@ -201,30 +202,43 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
     principled = nodes["Principled BSDF"]
 
-    def surfaces():
+    def surfaces(node=None):
+        if node is not None:
+            links.new(node.outputs[0], output.inputs["Surface"])
         request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-        return request.get("diffuse_materials"), [w for w in warnings if "Diffuse BSDF" in w or "Principled BSDF" in w]
+        named = [w for w in warnings if "BSDF" in w]
+        return request.get("bsdf_nodes"), [w.split(":")[1].split(" (")[0].strip() for w in named], request.get("single_scatter_materials")
 
-    assert surfaces() == (None, [])
+    assert surfaces() == (None, [], None)
     diffuse = nodes.new("ShaderNodeBsdfDiffuse")
     diffuse.inputs["Color"].default_value = (0.5, 1.5, 0.25, 1.0)
-    links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
-    assert surfaces() == ([{"material": "Red", "color": [0.5, 1.0, 0.25]}], [])
+    assert surfaces(diffuse) == ([{"material": "Red", "node": "diffuse", "color": [0.5, 1.0, 0.25]}], [], None)
     diffuse.inputs["Roughness"].default_value = 0.5
-    records, warnings = surfaces()
-    assert records and len(warnings) == 1 and warnings[0].startswith("Red: a Diffuse BSDF's Roughness"), warnings
+    assert surfaces()[1] == ["Glint renders this BSDF node as the nearest Principled BSDF"]
     glossy = nodes.new("ShaderNodeBsdfGlossy")
-    links.new(glossy.outputs["BSDF"], output.inputs["Surface"])
-    records, warnings = surfaces()
-    assert records is None and len(warnings) == 1 and warnings[0].startswith("Red: a surface without a Principled BSDF"), warnings
+    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    glossy.inputs["Roughness"].default_value = 0.25
+    assert surfaces(glossy) == ([{"material": "Red", "node": "glossy", "color": [1.0, 1.0, 1.0], "roughness": 0.25}], [], None)
+    glossy.distribution = "GGX"
+    assert surfaces()[2] == ["Red"]
+    glossy.inputs["Color"].default_value = (0.9, 0.5, 0.2, 1.0)
+    assert surfaces()[1] == ["Glint renders this BSDF node as the nearest Principled BSDF"]
+    glass = nodes.new("ShaderNodeBsdfGlass")
+    glass.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    glass.inputs["IOR"].default_value = 1.33
+    records, named, _ = surfaces(glass)
+    assert records == [{"material": "Red", "node": "glass", "color": [1.0, 1.0, 1.0], "roughness": 0.0, "ior": pytest.approx(1.33)}] and named == [], (records, named)
+    glass.inputs["IOR"].default_value = 0.8
+    records, named, _ = surfaces()
+    assert records[0]["ior"] == 1.0 and named == ["Glint renders this BSDF node as the nearest Principled BSDF"], (records, named)
+    translucent = nodes.new("ShaderNodeBsdfTranslucent")
+    records, named, _ = surfaces(translucent)
+    assert records is None and len(named) == 1 and named[0].startswith("a surface without a Principled BSDF"), named
     mix = nodes.new("ShaderNodeMixShader")
     links.new(principled.outputs["BSDF"], mix.inputs[1])
-    links.new(glossy.outputs["BSDF"], mix.inputs[2])
-    links.new(mix.outputs["Shader"], output.inputs["Surface"])
-    assert surfaces() == (None, [])
-    emission = nodes.new("ShaderNodeEmission")
-    links.new(emission.outputs["Emission"], output.inputs["Surface"])
-    assert surfaces() == (None, [])
+    links.new(translucent.outputs["BSDF"], mix.inputs[2])
+    assert surfaces(mix) == (None, [], None)
+    assert surfaces(nodes.new("ShaderNodeEmission")) == (None, [], None)
 
 
 def test_ray_visibility_goes_in_the_request_or_is_named(empty_scene):

@@ -264,13 +264,17 @@ def test_anisotropic_sphere_matches_cycles(empty_scene, tmp_path, metallic, roug
     assert z.max() < 5.0, (z.max(), bias)
 
 
-def test_diffuse_bsdf_matches_cycles(empty_scene, tmp_path):
-    """A Diffuse BSDF node, not a Principled BSDF, on the sphere: glTF
-    cannot carry it (the exporter writes glTF's default, a white rough
-    metal), so its Color goes in the request and Glint renders it Lambert,
-    as Cycles does at Roughness 0 (0.00%, every tile within 2.3 σ, in the
-    run that added it; as the exporter's white metal, 100% bright and
-    2,769 σ off)."""
+@pytest.mark.parametrize("kind, roughness", [("Diffuse", 0.0), ("Glossy", 0.3), ("Glossy", 0.05)])
+def test_bsdf_node_matches_cycles(empty_scene, tmp_path, kind, roughness):
+    """A Diffuse or Glossy BSDF node, not a Principled BSDF, on the sphere:
+    glTF cannot carry it (the exporter writes glTF's default, a white rough
+    metal), so it goes in the request and Glint renders the Principled BSDF
+    Cycles' node equals: Lambert in its Color (at Roughness 0), a white
+    metal for a white Glossy (its F is 1 at every angle, as the node's
+    constant colour). In the run that added it: Diffuse 0.00%, every
+    tile within 2.3 σ (as the exporter's white metal, 100% bright and
+    2,769 σ off); Glossy at roughness 0.3 and 0.05, −0.46% and +0.30%,
+    every tile within 1.5 σ."""
     import json
 
     from glint import daemon
@@ -279,12 +283,14 @@ def test_diffuse_bsdf_matches_cycles(empty_scene, tmp_path):
     material = bpy.data.materials["M"]
     nodes = material.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
-    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
-    diffuse.inputs["Color"].default_value = (0.2, 0.5, 0.8, 1.0)
+    node = nodes.new(f"ShaderNodeBsdf{kind}")
+    colour = [0.2, 0.5, 0.8] if kind == "Diffuse" else [1.0, 1.0, 1.0]
+    node.inputs["Color"].default_value = (*colour, 1.0)
+    node.inputs["Roughness"].default_value = roughness
     output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
-    material.node_tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    material.node_tree.links.new(node.outputs["BSDF"], output.inputs["Surface"])
     z, bias, _, _ = compare(empty_scene, tmp_path, 64)
-    request = json.loads(open(daemon.current().path("request.json")).read())
-    assert request["diffuse_materials"] == [{"material": "M", "color": pytest.approx([0.2, 0.5, 0.8])}], request.get("diffuse_materials")
-    print(f"Diffuse BSDF: bias against Cycles {bias * 100:.2f} %, worst tile {z.max():.1f} σ")
+    record = json.loads(open(daemon.current().path("request.json")).read())["bsdf_nodes"]
+    assert record == [{"material": "M", "node": kind.lower(), "color": pytest.approx(colour), **({"roughness": pytest.approx(roughness)} if kind != "Diffuse" else {})}], record
+    print(f"{kind} BSDF, roughness {roughness}: bias against Cycles {bias * 100:.2f} %, worst tile {z.max():.1f} σ")
     assert z.max() < 5.0, (z.max(), bias)
