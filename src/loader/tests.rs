@@ -206,6 +206,14 @@ fn volume_absorption_from_attenuation() {
     d["materials"][0]["extensions"] = volume(json!({"thicknessFactor": 1.0, "attenuationDistance": 1e-30, "attenuationColor": [0.0, 2.0, 0.5]}));
     let sigma = load(&d).unwrap().materials[0].absorption;
     assert!(sigma.is_finite() && sigma.x > 1e30 && sigma.y == 0.0, "{sigma}");
+    // Malformed: one line, no panic.
+    for v in [json!({"thicknessFactor": 1.0, "attenuationColor": "red"}), json!({"attenuationDistance": [1]}), json!(7)] {
+        d["materials"][0]["extensions"] = volume(v.clone());
+        match load(&d) {
+            Ok(s) => assert_eq!(s.materials[0].absorption, Vec3::ZERO, "{v}"),
+            Err(e) => assert!(!e.to_string().contains('\n'), "{v}: {e}"),
+        }
+    }
 }
 
 /// KHR_materials_clearcoat's two factors, as Blender's exporter writes
