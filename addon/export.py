@@ -147,6 +147,15 @@ def world_background(scene):
     return [0.0, 0.0, 0.0], {"image": os.path.abspath(path), "strength": strength, "rotation": rotation}, None
 
 
+def world_volume(scene):
+    """Whether the World's active output has a Volume linked."""
+    world = scene.world
+    if world is None or not world.use_nodes or world.node_tree is None:
+        return False
+    outputs = [n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output]
+    return bool(outputs) and outputs[0].inputs["Volume"].is_linked
+
+
 def area_lights(depsgraph):
     """Every visible area light (instances included) as request records,
     portals among them."""
@@ -263,6 +272,8 @@ def render_request(depsgraph, job, width, height):
     background, environment, problem = world_background(scene)
     if problem:
         warnings.append(problem)
+    if world_volume(scene):
+        warnings.append("the World's Volume (fog, haze) is not rendered by Glint: its rays cross empty space")
     procedural = sorted(m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES))
     if procedural:
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")

@@ -161,7 +161,8 @@ def test_a_tangent_node_goes_in_the_request(empty_scene):
 def test_a_volume_absorption_goes_in_the_request_or_is_named(empty_scene):
     """A Volume Absorption on the Material Output's Volume goes in the
     request (Color clamped to [0, 1], Density to ≥ 0; its render:
-    test_glass_vs_cycles.py); any other volume is named in a warning."""
+    test_glass_vs_cycles.py); any other volume, and the World's, is named
+    in a warning."""
     build_scene(empty_scene)
     red = bpy.data.materials["Red"]
     red.node_tree.nodes["Principled BSDF"].inputs["Transmission Weight"].default_value = 1.0
@@ -169,9 +170,15 @@ def test_a_volume_absorption_goes_in_the_request_or_is_named(empty_scene):
 
     def volumes():
         request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-        return request.get("volume_absorption"), [w for w in warnings if "volume" in w]
+        return request.get("volume_absorption"), [w for w in warnings if "volume" in w.lower()]
 
     assert volumes() == (None, [])
+    # The World's fog is named too.
+    world = empty_scene.world.node_tree
+    fog = world.nodes.new("ShaderNodeVolumePrincipled")
+    world.links.new(fog.outputs["Volume"], next(n for n in world.nodes if n.type == "OUTPUT_WORLD").inputs["Volume"])
+    assert volumes()[1] == ["the World's Volume (fog, haze) is not rendered by Glint: its rays cross empty space"]
+    world.nodes.remove(fog)
     absorption = red.node_tree.nodes.new("ShaderNodeVolumeAbsorption")
     absorption.inputs["Color"].default_value = (0.5, 1.5, 0.25, 1.0)
     absorption.inputs["Density"].default_value = 3.0
