@@ -15,9 +15,9 @@ applied.
 Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²); their radius and Soft Falloff, and a sun's
 angle, go in the request. Not carried, or not yet rendered
-by Glint: procedural textures and a Coat IOR other than 1.5 (the user
-is warned), other Principled inputs (sheen, subsurface, thin film), and
-World node setups other than a plain Background colour or an
+by Glint: procedural textures, a Coat IOR other than 1.5, and the
+Principled inputs Subsurface, Sheen, Thin Film and Diffuse Roughness (the
+user is warned of each), and World node setups other than a plain Background colour or an
 equirectangular Environment Texture (with at most a Mapping node's Z
 rotation), which the request carries.
 
@@ -30,7 +30,9 @@ visibility is warned of, not rendered), the scene camera and what
 glTF cannot say of it (Shift X and Y, Depth of Field, a panoramic camera's
 type and settings), Film › Transparent (and
 Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, samples, bounces,
-time limit, Noise Threshold and Min Samples (adaptive sampling), seed, the
+time limit, Noise Threshold and Min Samples (adaptive sampling), a Volume
+Absorption inside glass, a Diffuse, Glossy or Glass BSDF node in place of
+a Principled BSDF (the exporter writes glTF's default material), seed, the
 World colour, every area light (glTF has none):
 shape, size, world transform, colour and power, and the sizes of the
 point, spot and sun lights. (The camera's Clip Start and End go through
@@ -277,6 +279,7 @@ def render_request(depsgraph, job, width, height):
     procedural = sorted(m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES))
     if procedural:
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
+    warnings.extend(principled_inputs_left_out(depsgraph))
     warnings.extend(light_settings_left_out(depsgraph))
     warnings.extend(ray_visibility_left_out(depsgraph))
     tints, coat_iors = coat_settings(depsgraph)
@@ -448,6 +451,23 @@ def used_materials(depsgraph):
             if m is not None and m.use_nodes and m.node_tree is not None:
                 found[m.name] = m
     return list(found.values())
+
+
+# Principled BSDF inputs Glint does not render, and what a warning calls them.
+PRINCIPLED_LEFT_OUT = (("Subsurface Weight", "Subsurface"), ("Sheen Weight", "Sheen"), ("Thin Film Thickness", "Thin Film"), ("Diffuse Roughness", "Diffuse Roughness"))
+
+
+def principled_inputs_left_out(depsgraph):
+    """One warning per material whose Principled BSDF uses an input Glint
+    does not render (linked, or above 0), naming them; Glint renders it as
+    if they were 0."""
+    warnings = []
+    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+        used = {label for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED" for name, label in PRINCIPLED_LEFT_OUT if n.inputs[name].is_linked or n.inputs[name].default_value > 0.0}
+        if used:
+            labels = [label for _, label in PRINCIPLED_LEFT_OUT if label in used]
+            warnings.append(f"{m.name}: {', '.join(labels)} of the Principled BSDF not rendered by Glint (rendered as 0)")
+    return warnings
 
 
 def coat_settings(depsgraph):

@@ -248,6 +248,27 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     assert surfaces(nodes.new("ShaderNodeEmission")) == (None, [], None)
 
 
+def test_principled_inputs_glint_leaves_out_are_named(empty_scene):
+    """Subsurface, Sheen, Thin Film and Diffuse Roughness, which Glint does
+    not render, are named in one warning per material once used (above 0
+    or linked), and not before."""
+    build_scene(empty_scene)
+    principled = bpy.data.materials["Red"].node_tree.nodes["Principled BSDF"]
+
+    def named():
+        _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        return [w for w in warnings if "of the Principled BSDF" in w]
+
+    assert named() == []
+    principled.inputs["Sheen Weight"].default_value = 0.5
+    principled.inputs["Subsurface Weight"].default_value = 0.2
+    assert named() == ["Red: Subsurface, Sheen of the Principled BSDF not rendered by Glint (rendered as 0)"]
+    principled.inputs["Sheen Weight"].default_value = 0.0
+    value = bpy.data.materials["Red"].node_tree.nodes.new("ShaderNodeValue")
+    bpy.data.materials["Red"].node_tree.links.new(value.outputs["Value"], principled.inputs["Diffuse Roughness"])
+    assert named() == ["Red: Subsurface, Diffuse Roughness of the Principled BSDF not rendered by Glint (rendered as 0)"]
+
+
 def test_ray_visibility_goes_in_the_request_or_is_named(empty_scene):
     """Objects hidden from the camera are listed in the request (their
     render: test_visibility_vs_cycles.py); visibility to other rays, which
