@@ -122,8 +122,8 @@ def world_background(scene):
         return [0.0, 0.0, 0.0], None, None
     if not world.use_nodes or world.node_tree is None:
         return list(world.color[:3]), None, None
-    outputs = [n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output]
-    links = outputs[0].inputs["Surface"].links if outputs else []
+    output = world_output(world)
+    links = output.inputs["Surface"].links if output is not None else []
     if not links:
         return [0.0, 0.0, 0.0], None, None
     node = links[0].from_node
@@ -149,13 +149,18 @@ def world_background(scene):
     return [0.0, 0.0, 0.0], {"image": os.path.abspath(path), "strength": strength, "rotation": rotation}, None
 
 
+def world_output(world):
+    """The World's active World Output node, or None."""
+    return next((n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
+
+
 def world_volume(scene):
     """Whether the World's active output has a Volume linked."""
     world = scene.world
     if world is None or not world.use_nodes or world.node_tree is None:
         return False
-    outputs = [n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output]
-    return bool(outputs) and outputs[0].inputs["Volume"].is_linked
+    output = world_output(world)
+    return output is not None and output.inputs["Volume"].is_linked
 
 
 def area_lights(depsgraph):
@@ -276,7 +281,7 @@ def render_request(depsgraph, job, width, height):
         warnings.append(problem)
     if world_volume(scene):
         warnings.append("the World's Volume (fog, haze) is not rendered by Glint: its rays cross empty space")
-    procedural = sorted(m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES))
+    procedural = [m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES)]
     if procedural:
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
     warnings.extend(principled_inputs_left_out(depsgraph))
@@ -443,14 +448,14 @@ def focus_distance(camera):
 
 
 def used_materials(depsgraph):
-    """The node materials of every rendered object, once each."""
+    """The node materials of every rendered object, once each, by name."""
     found = {}
     for i in depsgraph.object_instances:
         for slot in getattr(i.object, "material_slots", []):
             m = slot.material
             if m is not None and m.use_nodes and m.node_tree is not None:
                 found[m.name] = m
-    return list(found.values())
+    return [found[name] for name in sorted(found)]
 
 
 # Principled BSDF inputs Glint does not render, and what a warning calls them.
@@ -462,10 +467,10 @@ def principled_inputs_left_out(depsgraph):
     does not render (linked, or above 0), naming them; Glint renders it as
     if they were 0."""
     warnings = []
-    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
-        used = {label for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED" for name, label in PRINCIPLED_LEFT_OUT if n.inputs[name].is_linked or n.inputs[name].default_value > 0.0}
-        if used:
-            labels = [label for _, label in PRINCIPLED_LEFT_OUT if label in used]
+    for m in used_materials(depsgraph):
+        principled = [n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"]
+        labels = [label for name, label in PRINCIPLED_LEFT_OUT if any(n.inputs[name].is_linked or n.inputs[name].default_value > 0.0 for n in principled)]
+        if labels:
             warnings.append(f"{m.name}: {', '.join(labels)} of the Principled BSDF not rendered by Glint (rendered as 0)")
     return warnings
 
@@ -475,7 +480,7 @@ def coat_settings(depsgraph):
     Tint where it is not white (for the request; a linked one is left
     white), and the names of materials whose Coat IOR is not 1.5."""
     tints, iors = [], []
-    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+    for m in used_materials(depsgraph):
         for node in (n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"):
             weight = node.inputs["Coat Weight"]
             if not weight.is_linked and weight.default_value <= 0.0:
@@ -488,14 +493,14 @@ def coat_settings(depsgraph):
             if ior.is_linked or abs(ior.default_value - 1.5) > 1e-4:
                 iors.append(m.name)
             break
-    return tints, sorted(set(iors))
+    return tints, iors
 
 
 def fed_outputs(depsgraph, name):
     """(material, input, node feeding it) for each rendered material, by
     name, whose Material Output that Cycles renders with has its input
     `name` (Surface, Volume) linked."""
-    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+    for m in used_materials(depsgraph):
         outputs = [n for n in m.node_tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output and n.target in {"ALL", "CYCLES"}]
         socket = outputs[0].inputs[name] if outputs else None
         if socket is not None and socket.is_linked:
@@ -593,7 +598,7 @@ def anisotropy_tangents(depsgraph):
                 if slot.material is not None:
                     meshes.setdefault(slot.material.name, i.object.data)
     records, others = [], []
-    for m in sorted(used_materials(depsgraph), key=lambda m: m.name):
+    for m in used_materials(depsgraph):
         for node in (n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"):
             anisotropic, tangent = node.inputs["Anisotropic"], node.inputs["Tangent"]
             if not (anisotropic.is_linked or anisotropic.default_value > 0.0) or not tangent.is_linked:

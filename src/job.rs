@@ -11,7 +11,7 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
+use crate::request::{is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -179,14 +179,9 @@ fn check_radiance(scene: &Scene) -> Result<(), String> {
 /// emission, none in such a material, stays.
 fn node_material(materials: &mut [crate::material::Material], node: &BsdfNode) -> Result<(), String> {
     let BsdfNode { material, color, roughness, ior, .. } = node;
-    if color.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) || !(0.0..=1.0).contains(roughness) || !(ior.is_finite() && *ior >= 1.0) {
+    if !(is_unit_rgb(color) && (0.0..=1.0).contains(roughness) && ior.is_finite() && *ior >= 1.0) {
         return Err(format!("BSDF node of '{material}' must have colour channels and roughness in [0, 1] and an IOR ≥ 1"));
     }
-    let (metallic, specular, transmission) = match node.node {
-        BsdfNodeKind::Diffuse => (0.0, 0.0, 0.0),
-        BsdfNodeKind::Glossy => (1.0, 1.0, 0.0),
-        BsdfNodeKind::Glass => (0.0, 1.0, 1.0),
-    };
     let colour = Vec3::from(*color);
     // Principled glass tints what crosses by √base and what reflects by
     // its Specular Tint on F0; Cycles' Glass BSDF takes its colour on
@@ -195,9 +190,10 @@ fn node_material(materials: &mut [crate::material::Material], node: &BsdfNode) -
     // 3–11% with base = colour and no tint). A Glossy BSDF's Fresnel is
     // constant, a metal's brightens toward grazing; tinting its F82 by
     // the colour was further off (−1.6%, against +0.2% without).
-    let (base, tint) = match node.node {
-        BsdfNodeKind::Glass => (colour * colour, colour),
-        BsdfNodeKind::Glossy | BsdfNodeKind::Diffuse => (colour, Vec3::ONE),
+    let (base, tint, metallic, specular, transmission) = match node.node {
+        BsdfNodeKind::Diffuse => (colour, Vec3::ONE, 0.0, 0.0, 0.0),
+        BsdfNodeKind::Glossy => (colour, Vec3::ONE, 1.0, 1.0, 0.0),
+        BsdfNodeKind::Glass => (colour * colour, colour, 0.0, 1.0, 1.0),
     };
     for m in materials.iter_mut().filter(|m| &m.name == material) {
         (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (base, metallic, specular, transmission, 0.0);
@@ -253,7 +249,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         m.multiscatter = false;
     }
     for CoatTint { material, tint } in extras.coat_tints {
-        if tint.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) {
+        if !is_unit_rgb(tint) {
             return Err(format!("{name}: coat tint of '{material}' must have channels in [0, 1]"));
         }
         for m in scene.materials.iter_mut().filter(|m| &m.name == material) {
@@ -261,7 +257,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         }
     }
     for VolumeAbsorption { material, color, density } in extras.volume_absorption {
-        if color.iter().any(|c| !(c.is_finite() && (0.0..=1.0).contains(c))) || !(density.is_finite() && *density >= 0.0) {
+        if !(is_unit_rgb(color) && density.is_finite() && *density >= 0.0) {
             return Err(format!("{name}: volume absorption of '{material}' must have colour channels in [0, 1] and a finite density ≥ 0"));
         }
         // Cycles' Volume Absorption: σ_a = (1 − Color) × Density, per

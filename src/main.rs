@@ -165,18 +165,20 @@ impl RenderOptions {
     }
 }
 
-fn parse_threshold(s: &str) -> Result<f32, String> {
-    match s.parse::<f32>() {
-        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
-        _ => Err(format!("'{s}' is not a noise threshold > 0")),
+/// A finite number > 0, or an error saying `s` is not `what` > 0.
+fn parse_positive<T: std::str::FromStr + Copy + Into<f64>>(s: &str, what: &str) -> Result<T, String> {
+    match s.parse::<T>() {
+        Ok(t) if t.into().is_finite() && t.into() > 0.0 => Ok(t),
+        _ => Err(format!("'{s}' is not {what} > 0")),
     }
 }
 
+fn parse_threshold(s: &str) -> Result<f32, String> {
+    parse_positive(s, "a noise threshold")
+}
+
 fn parse_seconds(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
-        _ => Err(format!("'{s}' is not a number of seconds > 0")),
-    }
+    parse_positive(s, "a number of seconds")
 }
 
 #[derive(Args)]

@@ -83,6 +83,13 @@ impl BsdfNode {
     }
 }
 
+/// Whether a colour's channels all lie in [0, 1] (none NaN): what a tint,
+/// an absorption colour, a BSDF node's colour or the default surface
+/// must be.
+pub(crate) fn is_unit_rgb(c: &[f32; 3]) -> bool {
+    c.iter().all(|v| (0.0..=1.0).contains(v))
+}
+
 /// Largest request file read (area lights are ~300 bytes each).
 pub const MAX_REQUEST_BYTES: u64 = 16 << 20;
 
@@ -291,7 +298,7 @@ impl RenderRequest {
         if self.environment.as_ref().is_some_and(|e| !(e.strength.is_finite() && e.strength >= 0.0 && e.rotation.is_finite())) {
             return Err("environment strength must be ≥ 0 and rotation finite".into());
         }
-        if self.default_surface.is_some_and(|b| b.iter().any(|c| !(0.0..=1.0).contains(c))) {
+        if self.default_surface.is_some_and(|b| !is_unit_rgb(&b)) {
             return Err("default_surface must be three numbers in [0, 1]".into());
         }
         Ok(())
