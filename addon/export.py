@@ -203,9 +203,11 @@ def hidden_from_camera(depsgraph):
 
 
 # Object › Visibility › Ray Visibility, but the camera's: each kind of ray
-# and the object's property for it.
+# Glint renders, by the render request's name, and the object's property
+# for it. Volume Scatter is not among them: Glint has no scattering
+# volumes (they have their own warning), so no ray of that kind is traced.
 RAYS = (("shadow", "visible_shadow"), ("diffuse", "visible_diffuse"), ("glossy", "visible_glossy"),
-        ("transmission", "visible_transmission"), ("volume scatter", "visible_volume_scatter"))
+        ("transmission", "visible_transmission"))
 
 
 def rays_hidden_from(obj, kinds=None):
@@ -214,19 +216,21 @@ def rays_hidden_from(obj, kinds=None):
     return [name for name, key in RAYS if (kinds is None or name in kinds) and not getattr(obj, key, True)]
 
 
-def ray_visibility_left_out(depsgraph):
-    """One warning per object other than a light that is hidden from
-    shadow, diffuse, glossy, transmission or volume rays, which Glint does
-    not render: it sees the object with every such ray."""
-    warnings = {}
+def hidden_from_rays(depsgraph):
+    """The objects other than lights hidden from shadow, diffuse, glossy
+    or transmission rays, for the request: by name (the exporter's node
+    names) with the kinds, sorted by name. Glint's rays of those kinds
+    pass them, as Cycles'; on an emitting object it renders the Shadow
+    setting alone, and says so."""
+    records = {}
     for instance in depsgraph.object_instances:
         obj = instance.object
-        if obj.type == "LIGHT":
+        if obj.type in {"LIGHT", "CAMERA", "EMPTY"}:
             continue
         hidden = rays_hidden_from(obj)
         if hidden:
-            warnings[obj.name] = f"{obj.name}: hidden from {', '.join(hidden)} rays, which Glint does not render (it sees the object with them)"
-    return [warnings[name] for name in sorted(warnings)]
+            records[obj.name] = {"object": obj.name, "rays": hidden}
+    return [records[name] for name in sorted(records)]
 
 
 def light_settings_left_out(depsgraph):
@@ -286,7 +290,6 @@ def render_request(depsgraph, job, width, height):
         warnings.append(f"{', '.join(procedural)}: procedural textures cannot go through glTF; Glint renders the node's own values (bake them to an image)")
     warnings.extend(principled_inputs_left_out(depsgraph))
     warnings.extend(light_settings_left_out(depsgraph))
-    warnings.extend(ray_visibility_left_out(depsgraph))
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
@@ -321,6 +324,7 @@ def render_request(depsgraph, job, width, height):
         "area_lights": area_lights(depsgraph),
         "light_sizes": light_sizes(depsgraph),
         "hidden_from_camera": hidden_from_camera(depsgraph),
+        "hidden_from_rays": hidden_from_rays(depsgraph),
         "anisotropy_tangents": tangents,
     }
     if environment:

@@ -97,6 +97,10 @@ pub struct Features {
     /// Materials on objects hidden from the camera: camera rays test
     /// them as they pass (`Material::hidden_from_camera`).
     pub hidden_from_camera: usize,
+    /// The kinds of rays after the camera's that some surface is hidden
+    /// from (`Material::hidden_from_rays`): those rays test what they
+    /// meet, and light subpaths are off.
+    pub hidden_from_rays: crate::material::Rays,
 }
 
 impl Features {
@@ -143,6 +147,7 @@ impl Features {
             f.coat += m.is_coated() as usize;
             f.anisotropic += (m.anisotropy > 0.0) as usize;
             f.hidden_from_camera += m.hidden_from_camera as usize;
+            f.hidden_from_rays = f.hidden_from_rays.union(m.hidden_from_rays);
             f.diffuse |= m.metallic < 1.0;
             f.ggx |= !m.is_pure_lambert();
             f.metallic |= m.metallic > 0.0;
@@ -208,6 +213,9 @@ impl fmt::Display for Features {
         }
         if self.hidden_from_camera > 0 {
             on.push(format!("hidden from camera={}", self.hidden_from_camera));
+        }
+        if !self.hidden_from_rays.is_empty() {
+            on.push(format!("hidden from {} rays", self.hidden_from_rays.names().join("/")));
         }
         if on.is_empty() {
             on.push("nothing".into());

@@ -61,7 +61,7 @@ pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights, Picked};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
 use crate::punctual::{PunctualKind, PunctualLight};
-use crate::material::Surface;
+use crate::material::{Rays, Surface};
 use crate::media::{self, Media, Sides};
 use crate::render::{LightPaths, RenderSettings};
 use crate::rng::Rng;
@@ -148,8 +148,10 @@ impl<'a> Context<'a> {
     /// need emitting triangles to start from, MIS to weigh them, and room
     /// for a connection's two scattering events.
     pub fn traces_light_paths(&self, settings: &RenderSettings) -> bool {
-        // Not from an emitter inside an absorbing medium (media.rs).
-        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && !self.emitters_in_media;
+        // Not from an emitter inside an absorbing medium (media.rs), nor
+        // where some rays pass surfaces: a subpath's rays have no kind
+        // (Blender's Ray Visibility) until the camera's side is known.
+        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && !self.emitters_in_media && self.features.hidden_from_rays.is_empty();
         possible
             && match settings.light_paths {
                 LightPaths::On => true,
@@ -220,6 +222,35 @@ impl<'a> Context<'a> {
         })
     }
 
+    /// The closest surface a BSDF sample's ray of kind `ray` (a set of
+    /// one, `Rays`) stops at: it passes those hidden from its kind.
+    #[inline]
+    pub(crate) fn intersect_scattered(&self, o: Vec3, d: Vec3, ray: Rays, rng: &mut Rng) -> Option<Hit> {
+        if !self.features.hidden_from_rays.meets(Rays::SCATTERED) {
+            return self.intersect(o, d, RayKind::Bounce, rng);
+        }
+        self.intersect_hiding(o, d, ray, rng)
+    }
+
+    /// `intersect_scattered` where some surfaces are hidden from some
+    /// kinds; out of line, as `intersect_passing`.
+    #[inline(never)]
+    fn intersect_hiding(&self, o: Vec3, d: Vec3, ray: Rays, rng: &mut Rng) -> Option<Hit> {
+        if let Some(log) = &self.ray_log {
+            log.push(TracedRay { kind: RayKind::Bounce, origin: o, dir: d, tmax: f32::INFINITY, skip: u32::MAX });
+        }
+        let alpha = self.features.alpha > 0;
+        self.accel.intersect_where(o, d, f32::INFINITY, |triangle, _, b1, b2| {
+            !self.hidden_from(triangle, ray) && (!alpha || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
+        })
+    }
+
+    /// Whether rays of kind `ray` pass triangle `triangle`.
+    #[inline]
+    fn hidden_from(&self, triangle: u32, ray: Rays) -> bool {
+        self.scene.materials[self.scene.triangles[triangle as usize].material as usize].hidden_from_rays.meets(ray)
+    }
+
     /// Whether camera rays pass triangle `triangle` (its object is hidden
     /// from the camera).
     #[inline]
@@ -249,10 +280,14 @@ impl<'a> Context<'a> {
         if let Some(log) = &self.ray_log {
             log.push(TracedRay { kind: RayKind::Shadow, origin: o, dir: d, tmax, skip });
         }
-        if self.features.alpha == 0 {
+        let hidden = self.features.hidden_from_rays.meets(Rays::SHADOW);
+        if self.features.alpha == 0 && !hidden {
             return self.accel.occluded_except(o, d, tmax, skip);
         }
-        self.accel.occluded_except_where(o, d, tmax, skip, |triangle, b1, b2| shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
+        let alpha = self.features.alpha > 0;
+        self.accel.occluded_except_where(o, d, tmax, skip, |triangle, b1, b2| {
+            !(hidden && self.hidden_from(triangle, Rays::SHADOW)) && (!alpha || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
+        })
     }
 }
 
@@ -1125,6 +1160,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     // glass has no code for them).
     let absorbing = B::GLASS && ctx.features.absorbing > 0;
     let mut media = Media::default();
+    // The kind of the ray after a bounce (Blender's Ray Visibility).
+    let mut scattered = Rays::NONE;
     // depth == max_depth: the ray after the last vertex, which only
     // gathers the light it reaches.
     for depth in 0..=max_depth {
@@ -1143,7 +1180,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
                 _ => ctx.intersect_between(o, d, skip, reach, RayKind::Camera, rng),
             },
             (0, FirstHit::Trace) => ctx.intersect_between(o, d, skip, reach, RayKind::Camera, rng),
-            _ => ctx.intersect(o, d, RayKind::Bounce, rng),
+            _ => ctx.intersect_scattered(o, d, scattered, rng),
         };
         // A lamp in front of the surface adds its light; the ray goes on.
         // Lamps before Clip Start are tested for only where there is one:
@@ -1277,6 +1314,14 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         if let Some(sides) = &sides {
             media = *sides.toward(wi.dot(si.ng));
         }
+        // The next ray's kind, by the lobe that sent it (Cycles' labels).
+        scattered = if s.wi.z < 0.0 {
+            Rays::TRANSMISSION
+        } else if s.diffuse {
+            Rays::DIFFUSE
+        } else {
+            Rays::GLOSSY
+        };
         see_through = see_through && settings.transparent_glass.is_some_and(|threshold| s.wi.z < 0.0 && si.surface.roughness <= threshold);
         o = origin;
         d = wi;

@@ -129,12 +129,14 @@ pub struct SceneExtras<'a> {
     pub lens: Option<&'a LensRequest>,
     /// Nodes whose meshes camera rays pass.
     pub hidden_from_camera: &'a [String],
+    /// Nodes whose meshes some other rays pass.
+    pub hidden_from_rays: &'a [crate::request::HiddenFromRays],
     pub anisotropy_tangents: &'a [AnisotropyTangent],
 }
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, bsdf_nodes: &r.bsdf_nodes, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, anisotropy_tangents: &r.anisotropy_tangents }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, bsdf_nodes: &r.bsdf_nodes, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, hidden_from_rays: &r.hidden_from_rays, anisotropy_tangents: &r.anisotropy_tangents }
     }
 }
 
@@ -225,7 +227,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     let name = scene_file.map_or(crate::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     let tangents = extras.anisotropy_tangents.iter().map(|t| Ok((t.material.clone(), t.source()?))).collect::<Result<Vec<_>, String>>();
     let anisotropy_tangents = tangents.map_err(|e| format!("{name}: {e}"))?;
-    let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone(), hidden_from_camera: extras.hidden_from_camera.to_vec(), anisotropy_tangents };
+    let hidden = extras.hidden_from_rays.iter().map(|h| Ok((h.object.clone(), h.rays()?))).collect::<Result<Vec<_>, String>>();
+    let hidden_from_rays = hidden.map_err(|e| format!("{name}: {e}"))?;
+    let load = LoadOptions { scene_index: options.scene_index, camera: options.camera.clone(), hidden_from_camera: extras.hidden_from_camera.to_vec(), hidden_from_rays, anisotropy_tangents };
     let mut scene = match scene_file {
         Some(path) => loader::load_file(path, &load),
         None => loader::load_bytes(crate::DEFAULT_SCENE.as_bytes(), None, crate::DEFAULT_SCENE_NAME, &load),

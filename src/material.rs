@@ -102,6 +102,55 @@ pub enum Axis {
     Z,
 }
 
+/// Kinds of rays after the camera's that an object can be hidden from
+/// (Blender's Object › Visibility › Ray Visibility; Camera is
+/// `Material::hidden_from_camera`), as Cycles types a ray: a shadow ray
+/// of light sampling, or the ray a BSDF sample sends on, by the lobe it
+/// came from — diffuse, glossy (a specular, metal or coat reflection, and
+/// glass's) or transmission (through glass). Several at once as a set.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Rays(u8);
+
+impl Rays {
+    pub const NONE: Rays = Rays(0);
+    pub const SHADOW: Rays = Rays(1);
+    pub const DIFFUSE: Rays = Rays(2);
+    pub const GLOSSY: Rays = Rays(4);
+    pub const TRANSMISSION: Rays = Rays(8);
+    /// The rays a BSDF sample sends on.
+    pub const SCATTERED: Rays = Rays(2 | 4 | 8);
+    const NAMES: [(Rays, &'static str); 4] = [(Rays::SHADOW, "shadow"), (Rays::DIFFUSE, "diffuse"), (Rays::GLOSSY, "glossy"), (Rays::TRANSMISSION, "transmission")];
+
+    /// The kind a render request names: shadow, diffuse, glossy or
+    /// transmission.
+    pub fn named(name: &str) -> Option<Rays> {
+        Rays::NAMES.iter().find(|(_, n)| *n == name).map(|&(r, _)| r)
+    }
+
+    /// The names of the kinds in the set, in `NAMES`' order.
+    pub fn names(self) -> Vec<&'static str> {
+        Rays::NAMES.iter().filter(|(r, _)| self.meets(*r)).map(|&(_, n)| n).collect()
+    }
+
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// Whether the two sets share a kind.
+    #[inline]
+    pub fn meets(self, other: Rays) -> bool {
+        self.0 & other.0 != 0
+    }
+
+    pub fn union(self, other: Rays) -> Rays {
+        Rays(self.0 | other.0)
+    }
+
+    pub fn without(self, other: Rays) -> Rays {
+        Rays(self.0 & !other.0)
+    }
+}
+
 /// glTF's alphaMode. Cycles renders alpha as stochastic transparency, and
 /// so does Glint: camera, bounce and shadow rays alike.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -204,6 +253,9 @@ pub struct Material {
     /// it. The loader gives such an object's triangles a copy of their
     /// material with this set.
     pub hidden_from_camera: bool,
+    /// The rays after the camera's that pass it (`Rays`), on an object
+    /// hidden from them; the loader makes that copy of the material too.
+    pub hidden_from_rays: Rays,
     /// Textures, when the material has any.
     pub textures: Option<Box<MaterialTextures>>,
     /// baseColorFactor's alpha.
@@ -237,6 +289,7 @@ impl Default for Material {
             anisotropy_rotation: 0.0,
             anisotropy_tangent: TangentSource::default(),
             hidden_from_camera: false,
+            hidden_from_rays: Rays::NONE,
             textures: None,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,

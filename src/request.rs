@@ -18,6 +18,7 @@
 //!   "bsdf_nodes": [ { "material": "Clay", "node": "diffuse", "color": [0.6, 0.4, 0.3] },
 //!     { "material": "Window", "node": "glass", "color": [1, 1, 1], "roughness": 0, "ior": 1.45 } ],
 //!   "hidden_from_camera": [ "Bounce card" ],
+//!   "hidden_from_rays": [ { "object": "Fill", "rays": ["shadow", "glossy"] } ],
 //!   "anisotropy_tangents": [ { "material": "Brushed", "uv_map": 0 },
 //!     { "material": "Dial", "radial_axis": "X" } ],
 //!   "light_sizes": [ { "name": "Point", "radius": 0.1, "soft_falloff": true },
@@ -156,6 +157,9 @@ pub struct RenderRequest {
     /// Nodes (Blender objects) hidden from the camera: camera rays pass
     /// their meshes, which every other ray sees.
     pub hidden_from_camera: Vec<String>,
+    /// Nodes (Blender objects) hidden from other rays: shadow, diffuse,
+    /// glossy or transmission.
+    pub hidden_from_rays: Vec<HiddenFromRays>,
     /// Anisotropic materials, by name, whose Tangent input is a Tangent
     /// node: radial about another axis than Z, or a UV map's.
     pub anisotropy_tangents: Vec<AnisotropyTangent>,
@@ -184,6 +188,25 @@ pub struct LensRequest {
     /// A panoramic camera's projection (panorama.rs), which replaces the
     /// glTF camera's; its shift is in fractions of the view's unit square.
     pub panorama: Option<crate::panorama::Panorama>,
+}
+
+/// An object's Ray Visibility but the camera's (Blender's Object ›
+/// Visibility › Ray Visibility): the kinds of rays, by name, that pass it.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HiddenFromRays {
+    pub object: String,
+    pub rays: Vec<String>,
+}
+
+impl HiddenFromRays {
+    /// The kinds it names; an error naming the first unknown one.
+    pub fn rays(&self) -> Result<crate::material::Rays, String> {
+        use crate::material::Rays;
+        self.rays.iter().try_fold(Rays::NONE, |set, name| {
+            Rays::named(name).map(|r| set.union(r)).ok_or_else(|| format!("hidden_from_rays of '{}': '{name}' is not a kind of ray (shadow, diffuse, glossy, transmission)", self.object))
+        })
+    }
 }
 
 /// A material's Tangent node (Blender's Principled BSDF › Tangent): one of
@@ -301,6 +324,9 @@ impl RenderRequest {
         if self.default_surface.is_some_and(|b| !is_unit_rgb(&b)) {
             return Err("default_surface must be three numbers in [0, 1]".into());
         }
+        for hidden in &self.hidden_from_rays {
+            hidden.rays()?;
+        }
         Ok(())
     }
 }
@@ -324,6 +350,9 @@ mod tests {
         let aperture = lens.aperture.unwrap();
         assert_eq!((lens.shift, aperture.blades, aperture.rotation, aperture.ratio), ([0.1, 0.0], 0, 0.0, 1.0));
         assert!(!r.area_lights[0].portal && r.area_lights[1].portal);
+        let hidden = RenderRequest::parse(br#"{"hidden_from_rays": [{"object": "Card", "rays": ["shadow", "glossy", "shadow"]}]}"#).unwrap();
+        use crate::material::Rays;
+        assert_eq!(hidden.hidden_from_rays[0].rays(), Ok(Rays::SHADOW.union(Rays::GLOSSY)));
         for (bad, why) in [
             (&br#"{"widht": 64}"#[..], "unknown field"),
             (br#"{"width": 0}"#, "width"),
@@ -338,6 +367,8 @@ mod tests {
             (br#"{"environment": {"strength": 1}}"#, "missing field `image`"),
             (br#"{"lens": {"aperture": {"radius": 0.01}}}"#, "missing field `focus_distance`"),
             (br#"{"lens": {"shift": [0.1, 0], "fstop": 2}}"#, "unknown field `fstop`"),
+            (br#"{"hidden_from_rays": [{"object": "Card", "rays": ["shadow", "volume"]}]}"#, "'volume' is not a kind of ray"),
+            (br#"{"hidden_from_rays": [{"object": "Card"}]}"#, "missing field `rays`"),
         ] {
             let e = RenderRequest::parse(bad).unwrap_err();
             assert!(e.contains(why) && !e.contains('\n'), "{e}");

@@ -282,9 +282,9 @@ impl<B: Bsdf> Bsdf for WithCoat<B> {
                     // The mirror: no other lobe makes this direction, and
                     // it reflects what the coat reflects at wo.
                     let f = Vec3::splat(c.reflected);
-                    return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
+                    return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true, diffuse: false });
                 }
-                BsdfSample { wi, f: Vec3::ZERO, pdf: 0.0, weight: Vec3::ZERO, delta: false }
+                BsdfSample { wi, f: Vec3::ZERO, pdf: 0.0, weight: Vec3::ZERO, delta: false, diffuse: false }
             }
             _ => {
                 // One uniform picks the layer and, rescaled, the lobe below.

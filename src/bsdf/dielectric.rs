@@ -187,11 +187,11 @@ impl Dielectric {
             let (reflected, through) = self.sides(f);
             if u_lobe < f {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some(BsdfSample { wi, f: reflected, pdf: f, weight: reflected / f, delta: true });
+                return Some(BsdfSample { wi, f: reflected, pdf: f, weight: reflected / f, delta: true, diffuse: false });
             }
             let wi = refract(wo, Vec3::Z, self.eta)?;
             let weight = self.tint * radiance;
-            return Some(BsdfSample { wi, f: weight * through, pdf: 1.0 - f, weight: weight * (through / (1.0 - f)), delta: true });
+            return Some(BsdfSample { wi, f: weight * through, pdf: 1.0 - f, weight: weight * (through / (1.0 - f)), delta: true, diffuse: false });
         }
         let h = sample_visible_normal(wo, self.alpha, u);
         let f = fresnel_dielectric(wo.dot(h), self.eta);
@@ -211,7 +211,7 @@ impl Dielectric {
         let pdf = self.pdf(wo, wi);
         let f = self.eval(wo, wi);
         let weight = f * (wi.z.abs() / pdf);
-        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false, diffuse: false })
     }
 }
 

@@ -40,6 +40,10 @@ pub struct BsdfSample {
     /// Drawn from a delta lobe: no other strategy can produce this wi, so
     /// an emitter it hits takes the full MIS weight.
     pub delta: bool,
+    /// Drawn from the diffuse lobe: the ray it sends is a diffuse ray
+    /// (Blender's Ray Visibility; otherwise glossy, or a transmission
+    /// where wi lies below the surface).
+    pub diffuse: bool,
 }
 
 /// The share of samples a near-mirror specular lobe gets at least; it
@@ -251,13 +255,13 @@ impl SeedBsdf {
             // Perfect mirror: wi = reflect(wo), h = n, weight F(n·wo) / p.
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             let f = fresnel_schlick_f90(self.f0, self.f90, cos_theta(wo));
-            return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
+            return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true, diffuse: false });
         }
         let wi = if u_lobe < p { ggx::sample(wo, u, self.alpha)? } else { lambert::sample(u) };
         let pdf = self.pdf(wo, wi);
         let f = self.eval(wo, wi);
         let weight = f * (cos_theta(wi) / pdf);
-        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false, diffuse: u_lobe >= p })
     }
 }
 
@@ -290,7 +294,7 @@ impl LambertBsdf {
         let pdf = self.pdf(wo, wi);
         let f = self.eval(wo, wi);
         let weight = f * (cos_theta(wi) / pdf);
-        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false, diffuse: true })
     }
 }
 

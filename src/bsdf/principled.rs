@@ -397,7 +397,7 @@ impl PrincipledBsdf {
         if self.smooth && u_lobe < p {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             let f = self.glossy_fresnel(wo.z);
-            return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true });
+            return Some(BsdfSample { wi, f, pdf: p, weight: f / p, delta: true, diffuse: false });
         }
         let wi = match (u_lobe < p, &self.anisotropic) {
             (true, None) => microfacet::sample(wo, self.alpha, u)?.0,
@@ -406,7 +406,7 @@ impl PrincipledBsdf {
         };
         let (f, pdf) = self.evaluate(wo, wi);
         let weight = f * (wi.z / pdf);
-        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false })
+        (pdf > 0.0 && weight.is_finite()).then_some(BsdfSample { wi, f, pdf, weight, delta: false, diffuse: u_lobe >= p })
     }
 }
 

@@ -11,7 +11,7 @@ mod images;
 mod tangents;
 
 use crate::camera::{Camera, Projection};
-use crate::material::{AlphaMode, Axis, Material, MaterialTextures, TangentSource};
+use crate::material::{AlphaMode, Axis, Material, MaterialTextures, Rays, TangentSource};
 use crate::punctual::{PunctualKind, PunctualLight};
 use crate::scene::{Scene, Triangle, VertexAttributes};
 use accessor::{read_floats, read_indices, BinChunk, Buffers, FloatData};
@@ -79,6 +79,9 @@ pub struct LoadOptions {
     pub camera: Option<String>,
     /// Nodes whose meshes camera rays pass (`Material::hidden_from_camera`).
     pub hidden_from_camera: Vec<String>,
+    /// Nodes whose meshes some rays after the camera's pass
+    /// (`Material::hidden_from_rays`).
+    pub hidden_from_rays: Vec<(String, Rays)>,
     /// Materials, by name, and their anisotropy's tangent
     /// (`Material::anisotropy_tangent`).
     pub anisotropy_tangents: Vec<(String, TangentSource)>,
@@ -192,7 +195,13 @@ pub fn load_bytes(bytes: &[u8], base_dir: Option<&Path>, name: &str, options: &L
 fn load_parts(json: &[u8], bin: Option<BinChunk>, base_dir: Option<&Path>, options: &LoadOptions) -> Result<Scene, String> {
     let root = parse_root(json)?;
     let mut builder = Builder::new(&root, bin, base_dir);
-    builder.hidden_nodes = options.hidden_from_camera.iter().cloned().collect();
+    for name in &options.hidden_from_camera {
+        builder.hidden_nodes.entry(name.clone()).or_default().camera = true;
+    }
+    for (name, rays) in &options.hidden_from_rays {
+        let hiding = builder.hidden_nodes.entry(name.clone()).or_default();
+        hiding.rays = hiding.rays.union(*rays);
+    }
     builder.anisotropy_tangents = options.anisotropy_tangents.clone();
     builder.walk_scene(options.scene_index)?;
     let camera = match options.camera.as_deref() {
@@ -223,6 +232,9 @@ struct Stats {
     bad_lights: usize,
     /// Vertex attributes a material needs that a primitive does not have.
     missing_attributes: HashMap<String, usize>,
+    /// Emitting materials on nodes hidden from diffuse, glossy or
+    /// transmission rays (`Builder::hidden_material`).
+    emitters_hidden_from_scattered: std::collections::BTreeSet<String>,
 }
 
 /// Vertex data a material's textures need.
@@ -239,6 +251,13 @@ struct CameraCandidate {
     world: Mat4,
 }
 
+/// What a node's meshes are hidden from (Blender's Ray Visibility).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+struct Hiding {
+    camera: bool,
+    rays: Rays,
+}
+
 struct Builder<'a> {
     root: &'a Root,
     buffers: Buffers<'a>,
@@ -250,9 +269,9 @@ struct Builder<'a> {
     images: ImageCache,
     /// glTF material index (None: the default material) → ours.
     material_ids: HashMap<Option<usize>, u32>,
-    /// Nodes hidden from the camera, and ours → its hidden copy.
-    hidden_nodes: std::collections::HashSet<String>,
-    hidden_ids: HashMap<u32, u32>,
+    /// Nodes hidden from some rays, and (ours, what from) → that copy.
+    hidden_nodes: HashMap<String, Hiding>,
+    hidden_ids: HashMap<(u32, Hiding), u32>,
     anisotropy_tangents: Vec<(String, TangentSource)>,
     cameras: Vec<CameraCandidate>,
     lights: Vec<PunctualLight>,
@@ -283,7 +302,7 @@ impl<'a> Builder<'a> {
             needs: Vec::new(),
             images: ImageCache::default(),
             material_ids: HashMap::new(),
-            hidden_nodes: Default::default(),
+            hidden_nodes: HashMap::new(),
             hidden_ids: HashMap::new(),
             anisotropy_tangents: Vec::new(),
             cameras: Vec::new(),
@@ -341,7 +360,7 @@ impl<'a> Builder<'a> {
             return Err(format!("node {unreached} is part of a node cycle"));
         }
         for mesh in 0..root.meshes.len() {
-            self.add_mesh(mesh, &Mat4::IDENTITY, false)?;
+            self.add_mesh(mesh, &Mat4::IDENTITY, Hiding::default())?;
         }
         for b in 0..root.buffers.len() {
             self.buffers.get(b)?;
@@ -365,8 +384,8 @@ impl<'a> Builder<'a> {
             }
             let world = parent * local_transform(node);
             if let Some(mesh) = node.mesh {
-                let hidden = node.name.as_ref().is_some_and(|n| self.hidden_nodes.contains(n));
-                self.add_mesh(mesh.value(), &world, hidden)?;
+                let hiding = node.name.as_ref().and_then(|n| self.hidden_nodes.get(n)).copied().unwrap_or_default();
+                self.add_mesh(mesh.value(), &world, hiding)?;
             }
             if let Some(light) = node.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
                 self.add_light(light.light.value(), node.name.as_deref(), &world);
@@ -495,21 +514,33 @@ impl<'a> Builder<'a> {
         Ok(Some(data))
     }
 
-    /// A copy of material `id` hidden from the camera, made once.
-    fn hidden_material(&mut self, id: u32) -> u32 {
-        if let Some(&hidden) = self.hidden_ids.get(&id) {
+    /// A copy of material `id` hidden as `hiding` says, made once. An
+    /// emitter stays seen by scattered rays, with a warning: Cycles leaves
+    /// its light out of light samples for the lobes hidden from it too,
+    /// which Glint's light sampling does not.
+    fn hidden_material(&mut self, id: u32, hiding: Hiding) -> u32 {
+        if hiding == Hiding::default() {
+            return id;
+        }
+        if let Some(&hidden) = self.hidden_ids.get(&(id, hiding)) {
             return hidden;
         }
+        let material = &self.materials[id as usize];
+        let mut rays = hiding.rays;
+        if material.is_emissive() && rays.meets(Rays::SCATTERED) {
+            self.stats.emitters_hidden_from_scattered.insert(material.name.clone());
+            rays = rays.without(Rays::SCATTERED);
+        }
         let hidden = self.materials.len() as u32;
-        self.materials.push(Material { hidden_from_camera: true, ..self.materials[id as usize].clone() });
+        self.materials.push(Material { hidden_from_camera: hiding.camera, hidden_from_rays: rays, ..material.clone() });
         self.needs.push(self.needs[id as usize]);
-        self.hidden_ids.insert(id, hidden);
+        self.hidden_ids.insert((id, hiding), hidden);
         hidden
     }
 
-    /// A mesh's triangles at a node's transform, `hidden` from the camera
-    /// or not.
-    fn add_mesh(&mut self, mesh_index: usize, world: &Mat4, hidden: bool) -> Result<(), String> {
+    /// A mesh's triangles at a node's transform, hidden from what
+    /// `hiding` says.
+    fn add_mesh(&mut self, mesh_index: usize, world: &Mat4, hiding: Hiding) -> Result<(), String> {
         let root = self.root;
         let mesh = root.meshes.get(mesh_index).ok_or_else(|| format!("mesh {mesh_index} does not exist"))?;
         let linear = Mat3::from_mat4(*world);
@@ -549,7 +580,7 @@ impl<'a> Builder<'a> {
             }
             self.stats.dangling_indices += indices.len() % 3;
             let material = self.material_id(prim.material.map(|m| m.value()))?;
-            let material = if hidden { self.hidden_material(material) } else { material };
+            let material = self.hidden_material(material, hiding);
             let needs = self.needs[material as usize];
             let mut uvs: [Option<FloatData>; 2] = [None, None];
             for (set, semantic) in [Semantic::TexCoords(0), Semantic::TexCoords(1)].into_iter().enumerate() {
@@ -737,6 +768,9 @@ impl<'a> Builder<'a> {
         if s.bad_lights > 0 {
             w.push(format!("left out {} punctual light(s) that do not exist, have an unknown type, or a non-finite transform or intensity", s.bad_lights));
         }
+        for name in &s.emitters_hidden_from_scattered {
+            w.push(format!("material '{name}' emits light on an object hidden from diffuse, glossy or transmission rays: those rays see it (Glint renders that Ray Visibility only on objects that do not emit)"));
+        }
         let mut missing: Vec<_> = s.missing_attributes.iter().collect();
         missing.sort();
         for (attribute, n) in missing {
@@ -918,6 +952,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         anisotropy_rotation,
         anisotropy_tangent: TangentSource::default(),
         hidden_from_camera: false,
+        hidden_from_rays: crate::material::Rays::NONE,
     }
 }
 

@@ -339,6 +339,29 @@ fn nodes_hidden_from_the_camera_get_hidden_copies_of_their_materials() {
     assert!(load(&d).unwrap().materials.iter().all(|m| !m.hidden_from_camera));
 }
 
+/// A node hidden from other rays gets its own copies, one per material
+/// and set of kinds, hidden from the camera too where both are asked;
+/// an emitting material keeps its scattered rays, with a warning naming it.
+#[test]
+fn nodes_hidden_from_rays_get_copies_and_emitters_keep_their_scattered_rays() {
+    use crate::material::Rays;
+    let mut d = base_doc();
+    d["nodes"].as_array_mut().unwrap().push(json!({"name": "Card", "mesh": 0, "translation": [0.0, 0.0, 1.0]}));
+    d["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    let shadow_glossy = Rays::SHADOW.union(Rays::GLOSSY);
+    let options = LoadOptions { hidden_from_camera: vec!["Card".into()], hidden_from_rays: vec![("Card".into(), Rays::SHADOW), ("Card".into(), Rays::GLOSSY), ("Nothing".into(), Rays::DIFFUSE)], ..LoadOptions::default() };
+    let s = load_bytes(d.to_string().as_bytes(), None, "test.gltf", &options).unwrap();
+    let hidden: Vec<(bool, Rays)> = s.triangles.iter().map(|t| &s.materials[t.material as usize]).map(|m| (m.hidden_from_camera, m.hidden_from_rays)).collect();
+    assert_eq!(hidden, [(false, Rays::NONE), (false, Rays::NONE), (true, shadow_glossy), (true, shadow_glossy)]);
+    assert!(s.warnings.iter().all(|w| !w.contains("emits")), "{:?}", s.warnings);
+    d["materials"][0]["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    let s = load_bytes(d.to_string().as_bytes(), None, "test.gltf", &options).unwrap();
+    let hidden: Vec<Rays> = s.triangles.iter().map(|t| s.materials[t.material as usize].hidden_from_rays).collect();
+    assert_eq!(hidden, [Rays::NONE, Rays::NONE, Rays::SHADOW, Rays::SHADOW]);
+    let name = &s.materials[0].name;
+    assert!(s.warnings.iter().any(|w| w.starts_with(&format!("material '{name}' emits light on an object hidden from diffuse, glossy or transmission rays"))), "{:?}", s.warnings);
+}
+
 /// KHR_materials_specular's specularColorFactor is Blender's Specular
 /// Tint: read and clamped, for metals and the dielectric layer alike.
 #[test]

@@ -269,20 +269,23 @@ def test_principled_inputs_glint_leaves_out_are_named(empty_scene):
     assert named() == ["Red: Subsurface, Diffuse Roughness of the Principled BSDF not rendered by Glint (rendered as 0)"]
 
 
-def test_ray_visibility_goes_in_the_request_or_is_named(empty_scene):
-    """Objects hidden from the camera are listed in the request (their
-    render: test_visibility_vs_cycles.py); visibility to other rays, which
-    Glint does not render, is named in one warning an object."""
+def test_ray_visibility_goes_in_the_request(empty_scene):
+    """Objects hidden from the camera, and those hidden from other rays
+    with the kinds, are listed in the request (their render:
+    test_visibility_vs_cycles.py) with no warning; Volume Scatter, which
+    Glint traces no rays of, is left out."""
     build_scene(empty_scene)
     request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-    assert request["hidden_from_camera"] == [] and not any("rays, which Glint" in w for w in warnings), warnings
+    assert request["hidden_from_camera"] == [] and request["hidden_from_rays"] == [], request
     sphere = bpy.data.objects["Sphere"]
     sphere.visible_camera = False
     sphere.visible_shadow = False
     sphere.visible_glossy = False
+    sphere.visible_volume_scatter = False
     request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
     assert request["hidden_from_camera"] == ["Sphere"], request["hidden_from_camera"]
-    assert "Sphere: hidden from shadow, glossy rays, which Glint does not render (it sees the object with them)" in warnings, warnings
+    assert request["hidden_from_rays"] == [{"object": "Sphere", "rays": ["shadow", "glossy"]}], request["hidden_from_rays"]
+    assert not any("Sphere" in w for w in warnings), warnings
 
 
 def test_the_light_paths_setting_goes_in_the_request(empty_scene):
