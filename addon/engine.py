@@ -107,8 +107,12 @@ class GlintRenderEngine(bpy.types.RenderEngine):
                     warned = True
                 samples, total = status.get("samples", 0), status.get("total_samples", 0)
                 elapsed = status.get("elapsed", 0.0)
-                if total:
-                    self.update_progress(min(1.0, samples / total))
+                # Adaptive sampling and a time limit end with fewer
+                # samples than the budget: done is the whole bar.
+                if state == "done":
+                    self._show_progress(1.0)
+                elif total:
+                    self._show_progress(min(1.0, samples / total))
                 stats = f"Glint | {samples}{'/' + str(total) if total else ''} samples | {elapsed:.1f} s"
                 if stats != shown_stats:
                     # Blender prints every update in background mode.
@@ -126,6 +130,10 @@ class GlintRenderEngine(bpy.types.RenderEngine):
                     self.end_result(result)
                     return True
             time.sleep(POLL_SECONDS)
+
+    def _show_progress(self, fraction):
+        """Blender's progress bar (a seam for tests, which cannot read it)."""
+        self.update_progress(fraction)
 
     def _cancel_requested(self):
         """Esc in the render window, or a farm's abort (a seam for tests,

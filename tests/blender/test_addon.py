@@ -314,6 +314,22 @@ def test_the_noise_threshold_goes_in_the_request(empty_scene):
     assert request["noise_threshold"] == pytest.approx(0.05) and request["adaptive_min_samples"] == 24
 
 
+def test_an_adaptive_render_ends_with_a_full_progress_bar(empty_scene, monkeypatch):
+    """Adaptive sampling stops below the sample budget; the render is
+    done all the same, and Blender's progress bar ends full (it had ended
+    where samples / budget left it)."""
+    build_scene(empty_scene)
+    settings = empty_scene.glint
+    settings.samples, settings.use_adaptive_sampling, settings.adaptive_threshold, settings.adaptive_min_samples = 4096, True, 0.2, 8
+    shown = []
+    monkeypatch.setattr(glint.engine.GlintRenderEngine, "_show_progress", lambda self, fraction: shown.append(fraction))
+    bpy.ops.render.render()
+    status = daemon.current().status()
+    print(f"adaptive: {status['samples']} of {status['total_samples']} samples, progress shown {shown[-3:]}")
+    assert status["state"] == "done" and status["samples"] < status["total_samples"], status
+    assert shown and shown[-1] == 1.0, shown
+
+
 def test_cancel_stops_the_render_promptly_and_leaves_nothing_behind(empty_scene, monkeypatch):
     build_scene(empty_scene)
     empty_scene.glint.samples = 1_000_000
