@@ -190,6 +190,8 @@ def area_lights(depsgraph):
                 "portal": bool(getattr(getattr(light, "cycles", None), "is_portal", False)),
                 # Radians, the opening of the cone the light leaves in.
                 "spread": float(getattr(light, "spread", math.pi)),
+                # Light › Cast Shadow: off, its light samples trace no shadow ray.
+                "cast_shadow": bool(getattr(light, "use_shadow", True)),
             }
         )
     return records
@@ -235,8 +237,8 @@ def hidden_from_rays(depsgraph):
 
 def light_settings_left_out(depsgraph):
     """One warning per light with settings Glint does not render, naming
-    them: Cast Shadow off, or rays it is hidden from (Object › Visibility ›
-    Ray Visibility). Glint renders such a light as if they were left at
+    them: the rays it is hidden from (Object › Visibility › Ray
+    Visibility). Glint renders such a light as if they were left at
     Blender's defaults."""
     warnings = {}
     for instance in depsgraph.object_instances:
@@ -245,8 +247,6 @@ def light_settings_left_out(depsgraph):
             continue
         light = obj.data
         left_out = []
-        if not getattr(light, "use_shadow", True):
-            left_out.append("Cast Shadow off")
         hidden = rays_hidden_from(obj, ("diffuse", "glossy", "transmission"))
         if hidden:
             left_out.append(f"hidden from {', '.join(hidden)} rays")
@@ -260,18 +260,18 @@ def light_sizes(depsgraph):
     cannot carry: radius and Soft Falloff, or a sun's angle. Keyed by the
     light data's name, the name the exporter gives the glTF light; with
     whether the camera sees it (Object › Visibility › Camera, off for
-    lights by default)."""
+    lights by default) and whether it casts shadows (Light › Cast Shadow)."""
     sizes = {}
     for instance in depsgraph.object_instances:
         light = instance.object.data if instance.object.type == "LIGHT" else None
         if light is None or light.type not in {"POINT", "SPOT", "SUN"}:
             continue
-        seen = bool(instance.object.visible_camera)
+        common = {"name": light.name, "visible_camera": bool(instance.object.visible_camera), "cast_shadow": bool(getattr(light, "use_shadow", True))}
         if light.type == "SUN":
-            sizes[light.name] = {"name": light.name, "angle": float(light.angle), "visible_camera": seen}
+            sizes[light.name] = {**common, "angle": float(light.angle)}
         else:
             soft = bool(getattr(light, "use_soft_falloff", True))
-            sizes[light.name] = {"name": light.name, "radius": float(light.shadow_soft_size), "soft_falloff": soft, "visible_camera": seen}
+            sizes[light.name] = {**common, "radius": float(light.shadow_soft_size), "soft_falloff": soft}
     return list(sizes.values())
 
 

@@ -101,6 +101,9 @@ pub struct Features {
     /// from (`Material::hidden_from_rays`): those rays test what they
     /// meet, and light subpaths are off.
     pub hidden_from_rays: crate::material::Rays,
+    /// Lights with Blender's Cast Shadow off (lamps and punctual lights):
+    /// light subpaths are off, as with `hidden_from_rays`.
+    pub shadowless: usize,
 }
 
 impl Features {
@@ -114,6 +117,7 @@ impl Features {
         }
         let mut f = Features {
             punctual: scene.punctual.len(),
+            shadowless: scene.punctual.iter().filter(|l| l.shadowless).count(),
             portals: scene.portals.len(),
             background: scene.has_world(),
             environment: scene.environment.is_some(),
@@ -128,6 +132,7 @@ impl Features {
                     f.lamps += 1;
                     f.lamp_triangles += count;
                     f.lamps_seen_by_camera += m.camera_sees_lamp as usize;
+                    f.shadowless += m.shadowless as usize;
                 } else {
                     f.emitters += 1;
                     f.emitter_triangles += count;
@@ -213,6 +218,9 @@ impl fmt::Display for Features {
         }
         if self.hidden_from_camera > 0 {
             on.push(format!("hidden from camera={}", self.hidden_from_camera));
+        }
+        if self.shadowless > 0 {
+            on.push(format!("casting no shadow={}", self.shadowless));
         }
         if !self.hidden_from_rays.is_empty() {
             on.push(format!("hidden from {} rays", self.hidden_from_rays.names().join("/")));

@@ -150,8 +150,10 @@ impl<'a> Context<'a> {
     pub fn traces_light_paths(&self, settings: &RenderSettings) -> bool {
         // Not from an emitter inside an absorbing medium (media.rs), nor
         // where some rays pass surfaces: a subpath's rays have no kind
-        // (Blender's Ray Visibility) until the camera's side is known.
-        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && !self.emitters_in_media && self.features.hidden_from_rays.is_empty();
+        // (Blender's Ray Visibility) until the camera's side is known; nor
+        // with a light that casts no shadow, whose light samples alone
+        // see through what its other strategies meet.
+        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && !self.emitters_in_media && self.features.hidden_from_rays.is_empty() && self.features.shadowless == 0;
         possible
             && match settings.light_paths {
                 LightPaths::On => true,
@@ -886,9 +888,11 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    rays.shadow += 1;
-    if ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, rng) {
-        return Vec3::ZERO;
+    if !light.shadowless {
+        rays.shadow += 1;
+        if ctx.occluded(si.spawn_origin(inc.wi), inc.wi, inc.distance, u32::MAX, rng) {
+            return Vec3::ZERO;
+        }
     }
     let weight = if mis && inc.pdf.is_finite() { power_heuristic(probability * inc.pdf, bsdf_pdf) } else { 1.0 };
     through_medium::<B>(f * inc.irradiance * (weight * wi_local.z.abs() / probability), sides, si, inc.wi, inc.distance)
@@ -973,7 +977,7 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
         return Vec3::ZERO;
     }
     let (_, light_error) = point_on_triangle(&light_tri.p(), ls.b1, ls.b2);
-    if !unblocked(ctx, si, wi, ls.point, light_error, ls.normal, ls.triangle, rng, rays) {
+    if !(light_material.shadowless || unblocked(ctx, si, wi, ls.point, light_error, ls.normal, ls.triangle, rng, rays)) {
         return Vec3::ZERO;
     }
     let weight = if mis { power_heuristic3(pdf, bsdf_pdf, connection_density(ctx, chain.toward(wi_local), ls.triangle, wi.dot(si.ng), cos_light)) } else { 1.0 };

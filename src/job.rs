@@ -215,7 +215,7 @@ fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
                 PunctualKind::Sun => (0.5 * size.angle, false),
                 _ => (size.radius, !size.soft_falloff),
             };
-            light.camera_sees = size.visible_camera;
+            (light.camera_sees, light.shadowless) = (size.visible_camera, !size.cast_shadow);
         }
     }
     Ok(())

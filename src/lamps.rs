@@ -58,6 +58,14 @@ pub struct AreaLight {
     /// leaves in (π, every way, by default; `Spread`).
     #[serde(default = "every_way")]
     pub spread: f32,
+    /// Blender's Light › Cast Shadow (on by default): off, its light
+    /// samples trace no shadow ray (`Material::shadowless`).
+    #[serde(default = "yes")]
+    pub cast_shadow: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn every_way() -> f32 {
@@ -178,6 +186,7 @@ pub fn add_area_lights(scene: &mut Scene, lights: &[AreaLight]) -> Result<(), St
             lamp: true,
             camera_sees_lamp: light.visible_camera,
             spread: Spread::new(light.spread),
+            shadowless: !light.cast_shadow,
             ..Material::default()
         });
         for mut p in fan {
@@ -202,7 +211,7 @@ mod tests {
     use crate::camera::Camera;
 
     fn light(shape: LampShape, size: [f32; 2], m: Mat4) -> AreaLight {
-        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0, visible_camera: false, portal: false, spread: PI }
+        AreaLight { name: "L".into(), shape, size, matrix: m.to_cols_array(), color: [1.0, 0.5, 0.25], power: 100.0, visible_camera: false, portal: false, spread: PI, cast_shadow: true }
     }
 
     fn empty_scene() -> Scene {

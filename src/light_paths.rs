@@ -666,7 +666,7 @@ mod tests {
             scene.triangles.push(Triangle::new([q[0], q[2], q[3]], [n; 3], 0));
         }
         let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, 3.0, 0.0));
-        add_area_lights(&mut scene, &[AreaLight { name: "L".into(), shape: LampShape::Square, size: [0.6, 0.6], matrix: matrix.to_cols_array(), color: [1.0; 3], power: 100.0, visible_camera: false, portal: false, spread }]).unwrap();
+        add_area_lights(&mut scene, &[AreaLight { name: "L".into(), shape: LampShape::Square, size: [0.6, 0.6], matrix: matrix.to_cols_array(), color: [1.0; 3], power: 100.0, visible_camera: false, portal: false, spread, cast_shadow: true }]).unwrap();
         Scene::new(scene.triangles, scene.materials, scene.camera)
     }
 
@@ -709,7 +709,7 @@ mod tests {
         // leaves them in (its light counted only where it reaches).
         for (sun, pays) in [(30.0, false), (0.3, true)] {
             let mut sunlit = lamp_over_floor(&[back, side], PI);
-            sunlit.punctual.push(crate::punctual::PunctualLight { name: "sun".into(), kind: crate::punctual::PunctualKind::Sun, position: Vec3::ZERO, direction: -Vec3::Y, intensity: Vec3::splat(sun), size: 0.0, sphere: false, camera_sees: false });
+            sunlit.punctual.push(crate::punctual::PunctualLight { name: "sun".into(), kind: crate::punctual::PunctualKind::Sun, position: Vec3::ZERO, direction: -Vec3::Y, intensity: Vec3::splat(sun), size: 0.0, sphere: false, camera_sees: false, shadowless: false });
             let (ctx, _) = Context::new(&sunlit);
             assert_eq!(ctx.light_paths_pay(), pays, "sun {sun}: {:?}", landing(&ctx));
         }

@@ -1094,7 +1094,7 @@ mod tests {
     }
 
     fn softbox(shape: crate::lamps::LampShape, size: [f32; 2], matrix: glam::Mat4, degrees: f32) -> crate::lamps::AreaLight {
-        crate::lamps::AreaLight { name: "Softbox".into(), shape, size, matrix: matrix.to_cols_array(), color: [1.0; 3], power: 300.0, visible_camera: false, portal: false, spread: degrees.to_radians() }
+        crate::lamps::AreaLight { name: "Softbox".into(), shape, size, matrix: matrix.to_cols_array(), color: [1.0; 3], power: 300.0, visible_camera: false, portal: false, spread: degrees.to_radians(), cast_shadow: true }
     }
 
     /// A rectangular lamp with a 30° Spread (2 × 1.2 m, 1.5 m up, facing
@@ -1132,7 +1132,7 @@ mod tests {
     /// quad lamp is one light, a sun or a black bulb none.
     #[test]
     fn only_two_or_more_local_lights_build_a_tree() {
-        let bulb = |name: &str, kind: PunctualKind, intensity: f32| PunctualLight { name: name.into(), kind, position: Vec3::Y, direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false, camera_sees: false };
+        let bulb = |name: &str, kind: PunctualKind, intensity: f32| PunctualLight { name: name.into(), kind, position: Vec3::Y, direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false, camera_sees: false, shadowless: false };
         let mut scene = lamp_under_a_world();
         let [a, b, c] = scene.triangles[0].p();
         // The lamp's mirror image across its hypotenuse: a quad with it.
@@ -1180,7 +1180,7 @@ mod tests {
         assert_eq!(lights.world_probability(behind, true), 0.0);
         // A bulb beside the lamp adds its own P/(4π d²) to the lamp's.
         let mut bulb = scene.clone();
-        bulb.punctual.push(PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 0.0, 0.5), direction: -Vec3::Z, intensity: Vec3::splat(2.0), size: 0.0, sphere: false, camera_sees: false });
+        bulb.punctual.push(PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 0.0, 0.5), direction: -Vec3::Z, intensity: Vec3::splat(2.0), size: 0.0, sphere: false, camera_sees: false, shadowless: false });
         let with_bulb = Lights::new(&bulb);
         let bulb_power = bulb.punctual[0].power(scene_radius(&bulb)) as f32;
         for p in [front, behind] {
@@ -1249,7 +1249,7 @@ mod tests {
         // A constant World beside a sun of irradiance 3.
         let mut sunny = Scene::new(vec![], vec![], scene.camera.clone());
         sunny.background = Vec3::splat(0.5);
-        sunny.punctual.push(PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false });
+        sunny.punctual.push(PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false, shadowless: false });
         let lights = Lights::new(&sunny);
         for (mis, world) in [(true, 0.0), (false, pi * 0.5 / (pi * 0.5 + 3.0))] {
             assert!((lights.world_probability(p, mis) - world).abs() < 1e-6, "{mis}");

@@ -247,6 +247,10 @@ pub struct Material {
     /// Where its anisotropy's tangent comes from (a render request's
     /// `anisotropy_tangents`; Cycles' default without).
     pub anisotropy_tangent: TangentSource,
+    /// A lamp with Blender's Cast Shadow off: its light samples trace no
+    /// shadow ray (every other ray meets what lies before it, as in
+    /// Cycles).
+    pub shadowless: bool,
     /// On an object hidden from the camera (Blender's Object › Visibility ›
     /// Ray Visibility › Camera off, from a render request): camera rays
     /// pass it and light tracing does not splat it; every other ray sees
@@ -288,6 +292,7 @@ impl Default for Material {
             anisotropy: 0.0,
             anisotropy_rotation: 0.0,
             anisotropy_tangent: TangentSource::default(),
+            shadowless: false,
             hidden_from_camera: false,
             hidden_from_rays: Rays::NONE,
             textures: None,

@@ -58,6 +58,8 @@ pub struct PunctualLight {
     /// Camera rays see a sized light too (Blender's Object › Visibility ›
     /// Camera, off for lights by default).
     pub camera_sees: bool,
+    /// Blender's Cast Shadow off: its light samples trace no shadow ray.
+    pub shadowless: bool,
 }
 
 /// Light arriving at a point from a punctual light.
@@ -259,7 +261,7 @@ mod tests {
 
     #[test]
     fn inverse_square_cone_and_sun() {
-        let point = PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(8.0), size: 0.0, sphere: false, camera_sees: false };
+        let point = PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(8.0), size: 0.0, sphere: false, camera_sees: false, shadowless: false };
         let i = point.incident(Vec3::ZERO, Vec2::ZERO).unwrap();
         assert_eq!(i.wi, Vec3::Y);
         assert!((i.irradiance.x - 2.0).abs() < 1e-6 && (i.distance - 2.0).abs() < 1e-6);
@@ -296,7 +298,7 @@ mod tests {
             sum / count as f64
         };
         let (r, h, i) = (0.5f32, 1.0f32, 8.0f32);
-        let disk = PunctualLight { name: "d".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(i), size: r, sphere: false, camera_sees: false };
+        let disk = PunctualLight { name: "d".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(i), size: r, sphere: false, camera_sees: false, shadowless: false };
         let e = mean(&disk, Vec3::ZERO, Vec3::Y);
         assert!((e - (i / (r * r + h * h)) as f64).abs() < 2e-3 * e, "disk: {e}");
         let sphere = PunctualLight { sphere: true, ..disk.clone() };
@@ -323,7 +325,7 @@ mod tests {
     #[test]
     fn rays_see_sized_lights_as_light_sampling_draws_them() {
         let spot = PunctualLight::spot(1.2, 0.6);
-        let base = PunctualLight { name: "l".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.5, -0.2), direction: Vec3::new(0.2, -1.0, 0.1).normalize(), intensity: Vec3::new(8.0, 4.0, 2.0), size: 0.4, sphere: false, camera_sees: false };
+        let base = PunctualLight { name: "l".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.5, -0.2), direction: Vec3::new(0.2, -1.0, 0.1).normalize(), intensity: Vec3::new(8.0, 4.0, 2.0), size: 0.4, sphere: false, camera_sees: false, shadowless: false };
         let lights = [
             base.clone(),
             PunctualLight { sphere: true, ..base.clone() },

@@ -255,6 +255,9 @@ pub struct LightSize {
     /// (off by default, as in Blender).
     #[serde(default)]
     pub visible_camera: bool,
+    /// Blender's Light › Cast Shadow (on by default).
+    #[serde(default = "yes")]
+    pub cast_shadow: bool,
 }
 
 fn yes() -> bool {

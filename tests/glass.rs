@@ -230,7 +230,7 @@ fn light_sampled_inside_an_absorbing_medium_is_absorbed_on_its_way() {
         common::triangle(p, 1)
     }));
     let mut scene = Scene::new(tris, vec![m, common::diffuse("card", 0.5)], common::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.002));
-    scene.punctual.push(PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 0.0, 0.4), direction: -Vec3::Z, intensity: Vec3::splat(2.0), size: 0.0, sphere: false, camera_sees: false });
+    scene.punctual.push(PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 0.0, 0.4), direction: -Vec3::Z, intensity: Vec3::splat(2.0), size: 0.0, sphere: false, camera_sees: false, shadowless: false });
     let (img, stats) = render(&scene, &RenderSettings { mis: true, ..settings(4, 4, 64, 16, 5) }, 2);
     common::assert_clean(&img, &stats, "card in an absorbing slab");
     let mean = img.iter().copied().sum::<Vec3>() / img.len() as f32;

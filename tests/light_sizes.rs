@@ -27,7 +27,7 @@ fn metal_floor(roughness: f32, light: PunctualLight) -> Scene {
 }
 
 fn lamp(sphere: bool) -> PunctualLight {
-    PunctualLight { name: "lamp".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(50.0), size: 0.5, sphere, camera_sees: false }
+    PunctualLight { name: "lamp".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(50.0), size: 0.5, sphere, camera_sees: false, shadowless: false }
 }
 
 #[test]
@@ -105,7 +105,7 @@ fn light_sizes_reach_the_named_lights_and_bad_ones_are_errors() {
     let path = dir.join("lights.gltf");
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
 
-    let size = |name: &str, radius: f32, soft_falloff: bool, angle: f32| LightSize { name: name.into(), radius, soft_falloff, angle, visible_camera: false };
+    let size = |name: &str, radius: f32, soft_falloff: bool, angle: f32| LightSize { name: name.into(), radius, soft_falloff, angle, visible_camera: false, cast_shadow: true };
     let sizes = [size("Lamp", 0.25, false, 0.0), size("Sun", 0.0, true, 0.02)];
     let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { light_sizes: &sizes, ..SceneExtras::default() }).unwrap();
     let find = |n: &str| job.scene.punctual.iter().find(|l| l.name == n).unwrap();

@@ -112,3 +112,44 @@ fn a_board_hidden_from_every_ray_leaves_the_image_as_without_it() {
         assert!(p.is_finite());
     }
 }
+
+/// The floor lit by a light with Cast Shadow on or off — a 1 m lamp 2 m
+/// up, or a point light of radius 0.3 m there —, under a seen board or
+/// none.
+fn lit_by(light: &str, board: bool, shadowless: bool) -> Scene {
+    use glint::punctual::{PunctualKind, PunctualLight};
+    let mut s = scene(matte(), board.then_some(Rays::NONE));
+    if light == "lamp" {
+        s.materials[1] = Material { lamp: true, shadowless, ..s.materials[1].clone() };
+        return Scene::new(s.triangles, s.materials, s.camera);
+    }
+    s.triangles.retain(|t| t.material != 1);
+    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, 2.0, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(4.0), size: 0.3, sphere: false, camera_sees: false, shadowless };
+    let mut s = Scene::new(s.triangles, s.materials, s.camera);
+    s.punctual = vec![point];
+    s
+}
+
+/// Blender's Cast Shadow off: the light's samples trace no shadow ray,
+/// so they light the floor as with no board, while BSDF samples that
+/// reach the light still meet the board, as in Cycles. Tolerance as
+/// above.
+#[test]
+fn a_light_casting_no_shadow_is_seen_past_the_board_by_its_light_samples_alone() {
+    for light in ["lamp", "sized point light"] {
+        for (strategy, like_none) in [(Strategy::Light, true), (Strategy::Bsdf, false)] {
+            let none = part(&lit_by(light, false, true), strategy);
+            let seen = part(&lit_by(light, true, false), strategy);
+            let apart = z(&none, &seen);
+            assert!(apart > 8.0, "{light}, {strategy:?}: the board takes too little light away to tell ({apart:.1} σ)");
+            let (like, expected) = if like_none { (&none, "no board") } else { (&seen, "a board with the shadow cast") };
+            let off = z(&part(&lit_by(light, true, true), strategy), like);
+            println!("{light}, {strategy:?}, casting no shadow: {off:+.2} σ from {expected} ({apart:.1} σ apart)");
+            assert!(off.abs() < 5.0, "{light}, {strategy:?}, casting no shadow: {off:.1} σ from the image of {expected}");
+        }
+    }
+    let s = RenderSettings { mis: true, ..settings(8, 8, 1, 4, 0) };
+    let scene = lit_by("lamp", true, true);
+    let (ctx, _) = glint::integrator::Context::new(&scene);
+    assert!(ctx.features_line(&s).contains("casting no shadow=1") && !ctx.traces_light_paths(&s), "{}", ctx.features_line(&s));
+}

@@ -275,7 +275,7 @@ fn a_world_and_a_lamp_add_up_whatever_the_world_is_picked_with() {
     );
     scene.background = Vec3::splat(sky);
     let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, h, 0.0));
-    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false, spread: std::f32::consts::PI };
+    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false, spread: std::f32::consts::PI, cast_shadow: true };
     glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
     let l = power / (std::f32::consts::PI * std::f32::consts::PI * r * r);
     let expected = (albedo / std::f32::consts::PI * (std::f32::consts::PI * l * r * r / (r * r + h * h) + std::f32::consts::PI * sky)) as f64;
@@ -347,7 +347,7 @@ fn direct_light_only_weighs_both_strategies_at_the_last_vertex() {
     );
     scene.background = Vec3::splat(sky);
     let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, h, 0.0));
-    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false, spread: std::f32::consts::PI };
+    let disk = glint::lamps::AreaLight { name: "Disk".into(), shape: glint::lamps::LampShape::Disk, size: [2.0 * r, 0.0], matrix: matrix.to_cols_array(), color: [1.0; 3], power, visible_camera: false, portal: false, spread: std::f32::consts::PI, cast_shadow: true };
     glint::lamps::add_area_lights(&mut scene, &[disk]).unwrap();
     // The noise of a pixel, from the difference of two seeds' images; the
     // mean over both.
@@ -405,9 +405,9 @@ fn point_and_sun_light_a_floor_as_the_inverse_square_and_cosine_laws_say() {
         vec![common::diffuse("floor", albedo)],
         common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.01),
     );
-    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false, camera_sees: false };
+    let point = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(0.0, h, 0.0), direction: -Vec3::Y, intensity: Vec3::splat(intensity), size: 0.0, sphere: false, camera_sees: false, shadowless: false };
     let tilt = 60f32.to_radians();
-    let sun = PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: Vec3::new(tilt.sin(), -tilt.cos(), 0.0), intensity: Vec3::splat(sun_e), size: 0.0, sphere: false, camera_sees: false };
+    let sun = PunctualLight { name: "sun".into(), kind: PunctualKind::Sun, position: Vec3::ZERO, direction: Vec3::new(tilt.sin(), -tilt.cos(), 0.0), intensity: Vec3::splat(sun_e), size: 0.0, sphere: false, camera_sees: false, shadowless: false };
     let from_point = albedo / std::f32::consts::PI * intensity / (h * h);
     let from_sun = albedo / std::f32::consts::PI * sun_e * tilt.cos();
     for (lights, expected) in [(vec![point.clone()], from_point), (vec![sun.clone()], from_sun), (vec![point, sun], from_point + from_sun)] {
@@ -447,10 +447,10 @@ fn specialised_kernels_render_the_general_kernels_image() {
     let mut sky = floor(diffuse("floor", 0.5));
     sky.background = Vec3::new(0.2, 0.3, 0.4);
     let mut point = floor(diffuse("floor", 0.5));
-    point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false });
+    point.punctual.push(PunctualLight { name: "p".into(), kind: PunctualKind::Point, position: Vec3::new(0.3, 1.0, 0.2), direction: -Vec3::Y, intensity: Vec3::splat(3.0), size: 0.0, sphere: false, camera_sees: false, shadowless: false });
     let mut lamp = floor(metal.clone());
     let m = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.0, 1.0, 0.0));
-    let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0, visible_camera: false, portal: false, spread: std::f32::consts::PI };
+    let light = AreaLight { name: "a".into(), shape: LampShape::Square, size: [0.5, 0.5], matrix: m.to_cols_array(), color: [1.0; 3], power: 20.0, visible_camera: false, portal: false, spread: std::f32::consts::PI, cast_shadow: true };
     glint::lamps::add_area_lights(&mut lamp, &[light]).unwrap();
     let cornell = load_bytes(glint::DEFAULT_SCENE.as_bytes(), None, "cornell", &LoadOptions::default()).unwrap();
     let cases = [
@@ -514,7 +514,7 @@ fn light_paths_keep_the_image_of_a_softbox_and_lower_its_noise() {
     use glint::lamps::{add_area_lights, AreaLight, LampShape};
     let mut scene = closed_box(0.6, 0.0);
     let matrix = glam::Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), glam::Vec3::new(0.1, 0.9, -0.2));
-    let lamp = AreaLight { name: "Softbox".into(), shape: LampShape::Rectangle, size: [1.0, 0.6], matrix: matrix.to_cols_array(), color: [1.0; 3], power: 40.0, visible_camera: false, portal: false, spread: 30f32.to_radians() };
+    let lamp = AreaLight { name: "Softbox".into(), shape: LampShape::Rectangle, size: [1.0, 0.6], matrix: matrix.to_cols_array(), color: [1.0; 3], power: 40.0, visible_camera: false, portal: false, spread: 30f32.to_radians(), cast_shadow: true };
     add_area_lights(&mut scene, &[lamp]).unwrap();
     let scene = Scene::new(scene.triangles, scene.materials, scene.camera);
     let with = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(24, 24, 64, 6, 0) };
@@ -722,7 +722,7 @@ fn room_with_a_window(portal: bool) -> Scene {
         // Local X along world −Z, local Y along Y, local Z along +X: −Z,
         // where an area light shines, is into the room.
         let m = glam::Mat4::from_cols(glam::Vec4::new(0.0, 0.0, -1.0, 0.0), glam::Vec4::Y, glam::Vec4::X, glam::Vec4::new(1.0, 0.5 * (y0 + y1), 0.0, 1.0));
-        let light = AreaLight { name: "window".into(), shape: LampShape::Rectangle, size: [z1 - z0, y1 - y0], matrix: m.to_cols_array(), color: [1.0; 3], power: 1000.0, visible_camera: false, portal: true, spread: std::f32::consts::PI };
+        let light = AreaLight { name: "window".into(), shape: LampShape::Rectangle, size: [z1 - z0, y1 - y0], matrix: m.to_cols_array(), color: [1.0; 3], power: 1000.0, visible_camera: false, portal: true, spread: std::f32::consts::PI, cast_shadow: true };
         glint::lamps::add_area_lights(&mut scene, &[light]).unwrap();
         assert_eq!(scene.portals.len(), 1);
     }

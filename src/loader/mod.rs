@@ -428,7 +428,7 @@ impl<'a> Builder<'a> {
             return;
         }
         let name = light.name.clone().or(node_name.map(String::from)).unwrap_or_else(|| format!("light {index}"));
-        self.lights.push(PunctualLight { name, kind, position, direction, intensity, size: 0.0, sphere: false, camera_sees: false });
+        self.lights.push(PunctualLight { name, kind, position, direction, intensity, size: 0.0, sphere: false, camera_sees: false, shadowless: false });
     }
 
     fn material_id(&mut self, index: Option<usize>) -> Result<u32, String> {
@@ -951,6 +951,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         anisotropy,
         anisotropy_rotation,
         anisotropy_tangent: TangentSource::default(),
+        shadowless: false,
         hidden_from_camera: false,
         hidden_from_rays: crate::material::Rays::NONE,
     }

@@ -101,13 +101,14 @@ def test_the_request_carries_area_lights_and_the_world(empty_scene):
     assert any(w.startswith("Red: procedural textures cannot go through glTF") for w in warnings), warnings
     assert not any(w.startswith("Panel:") for w in warnings), warnings
     # Light settings Glint does not render are named, one warning a light;
-    # a Spread it renders goes in the request.
+    # a Spread and Cast Shadow, which it renders, go in the request.
     bpy.data.lights["Panel"].spread = math.radians(60)
     bpy.data.lights["Panel"].use_shadow = False
     bpy.data.objects["Panel"].visible_glossy = False
     request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
-    assert "Panel: Cast Shadow off; hidden from glossy rays not rendered by Glint (it lights as with Blender's defaults)" in warnings, warnings
+    assert "Panel: hidden from glossy rays not rendered by Glint (it lights as with Blender's defaults)" in warnings, warnings
     assert request["area_lights"][0]["spread"] == pytest.approx(math.radians(60))
+    assert request["area_lights"][0]["cast_shadow"] is False
     bpy.data.lights["Panel"].spread, bpy.data.lights["Panel"].use_shadow = math.pi, True
     bpy.data.objects["Panel"].visible_glossy = True
     bpy.ops.render.render()

@@ -138,3 +138,47 @@ def test_objects_hidden_from_other_rays_match_cycles(empty_scene, tmp_path):
     assert z.max() < 5.0, (z.max(), bias)
     assert np.all(np.abs(bias) < 0.02), bias
     assert all(z_seen > 8.0 for z_seen in left_out.values()), left_out
+
+
+def test_lights_casting_no_shadow_match_cycles(empty_scene, tmp_path):
+    """Light › Cast Shadow off on an area light and a point light over a
+    floor, a gold ball and a board: their light samples pass everything,
+    while BSDF rays that reach them meet what is in the way, as in Cycles.
+    With Cast Shadow left on in Glint alone (what it rendered before it
+    read the setting) the image must be far from Cycles' (over 8 σ in
+    some tile), so the scene shows it."""
+    bpy.ops.mesh.primitive_plane_add(size=8)
+    give_principled(bpy.context.object, "Floor", Base_Color=(0.6, 0.6, 0.6, 1), Roughness=1.0, Specular_IOR_Level=0.0)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.6, location=(0.7, 0.6, 0.6), segments=48, ring_count=24)
+    bpy.ops.object.shade_smooth()
+    give_principled(bpy.context.object, "Gold", Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.3)
+    bpy.ops.mesh.primitive_plane_add(size=1.4, location=(-0.6, 0.2, 1.8))
+    give_principled(bpy.context.object, "Board", Base_Color=(0.3, 0.3, 0.3, 1), Roughness=1.0, Specular_IOR_Level=0.0)
+    lit_and_framed(empty_scene, (1.0, 300.0, (-0.6, 0.0, 3.4), (0, 0)), ((0, -4.6, 1.5), 78, 32), 48)
+    bulb = bpy.data.lights.new("Bulb", "POINT")
+    bulb.energy, bulb.shadow_soft_size = 150.0, 0.2
+    point = bpy.data.objects.new("Bulb", bulb)
+    point.location = (1.2, -0.6, 2.6)
+    empty_scene.collection.objects.link(point)
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(1.0, -0.3, 2.0))
+    give_principled(bpy.context.object, "Shade", Base_Color=(0.3, 0.3, 0.3, 1), Roughness=1.0, Specular_IOR_Level=0.0)
+    lights = [bpy.data.lights["Key"], bulb]
+    for light in lights:
+        light.use_shadow = False
+    cycles, glint = render_seeds(empty_scene, tmp_path, 256, 8, 3)
+    request = json.loads(open(daemon.current().path("request.json")).read())
+    assert request["area_lights"][0]["cast_shadow"] is False and request["light_sizes"][0]["cast_shadow"] is False, request
+    z, bias = tile_agreement(cycles, glint, 8)
+    print(f"lights casting no shadow: bias against Cycles {np.round(bias * 100, 2)} % (R, G, B), worst tile {z.max():.1f} σ")
+    for light in lights:
+        light.use_shadow = True
+    cast = []
+    for seed in range(1, 4):
+        empty_scene.glint.seed = seed
+        cast.append(render_rgb(tmp_path / f"cast{seed}.exr"))
+    z_cast, bias_cast = tile_agreement(cycles, cast, 8)
+    print(f"  the same with their shadows cast: bias {np.round(bias_cast * 100, 2)} %, worst tile {z_cast.max():.1f} σ")
+    # 36 tiles × 3 channels at 5 σ: a false alarm about 1 time in 16,000.
+    assert z.max() < 5.0, (z.max(), bias)
+    assert np.all(np.abs(bias) < 0.02), bias
+    assert z_cast.max() > 8.0, z_cast.max()

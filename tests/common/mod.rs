@@ -204,7 +204,7 @@ pub fn lamp_hall() -> Scene {
     let mut scene = Scene::new(triangles, materials, camera);
     for i in 0..8 {
         let x = if i % 2 == 0 { x0 + 0.3 } else { x1 - 0.3 };
-        scene.punctual.push(PunctualLight { name: format!("bulb {i}"), kind: PunctualKind::Point, position: c(x, 1.0, -3.0 - 5.0 * i as f32), direction: -Vec3::Y, intensity: Vec3::new(1.0, 0.6, 0.3) * 5.0, size: 0.0, sphere: false, camera_sees: false });
+        scene.punctual.push(PunctualLight { name: format!("bulb {i}"), kind: PunctualKind::Point, position: c(x, 1.0, -3.0 - 5.0 * i as f32), direction: -Vec3::Y, intensity: Vec3::new(1.0, 0.6, 0.3) * 5.0, size: 0.0, sphere: false, camera_sees: false, shadowless: false });
     }
     scene
 }
