@@ -293,11 +293,13 @@ def render_request(depsgraph, job, width, height):
     tints, coat_iors = coat_settings(depsgraph)
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
-    bsdf_nodes, other_surfaces, approximate, node_single_scatter = surface_shaders(depsgraph)
+    bsdf_nodes, shader_mixes, other_surfaces, mixed_otherwise, approximate, node_single_scatter = surface_shaders(depsgraph)
+    if mixed_otherwise:
+        warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass or Transparent BSDF is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
     if other_surfaces:
-        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy or Glass BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
+        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
     if approximate:
-        warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF at Roughness 0, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX, no Normal: exact; otherwise not)")
+        warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF at Roughness 0, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX — in a Mix Shader, as the Principled BSDF's —, a Transparent BSDF white, no Normal: exact; otherwise not)")
     absorption, other_volumes = volume_absorption(depsgraph)
     if other_volumes:
         warnings.append(f"{', '.join(other_volumes)}: a volume other than a Volume Absorption node with unlinked Color and Density is not rendered by Glint")
@@ -340,6 +342,8 @@ def render_request(depsgraph, job, width, height):
         request["volume_absorption"] = absorption
     if bsdf_nodes:
         request["bsdf_nodes"] = bsdf_nodes
+    if shader_mixes:
+        request["shader_mixes"] = shader_mixes
     if settings.time_limit > 0:
         request["time_limit"] = settings.time_limit
     if settings.use_adaptive_sampling:
@@ -528,46 +532,105 @@ def upstream(socket):
     return found
 
 
+# Blender's plain BSDF nodes Glint renders, by the request's names.
+PLAIN_NODES = {"BSDF_DIFFUSE": "diffuse", "BSDF_GLOSSY": "glossy", "BSDF_GLASS": "glass", "BSDF_TRANSPARENT": "transparent"}
+
+
+def plain_node(material, node):
+    """A plain BSDF node with unlinked Color, Roughness and IOR as a
+    request record of `material` (colours clamped to [0, 1], an IOR to
+    ≥ 1), whether Glint renders it exactly (not: Diffuse Roughness above
+    0, a coloured or anisotropic Glossy, a coloured Glass or Transparent,
+    a Beckmann or Ashikhmin-Shirley distribution, an IOR below 1, a
+    linked Normal) and whether it asks for GGX without multiple
+    scattering; None for any other node."""
+    inputs = [node.inputs[name] for name in ("Color", "Roughness", "IOR") if name in node.inputs]
+    if node.type not in PLAIN_NODES or any(i.is_linked for i in inputs):
+        return None
+    record = {"material": material.name, "node": PLAIN_NODES[node.type], "color": unit_rgb(node.inputs["Color"])}
+    if node.type == "BSDF_TRANSPARENT":
+        return record, record["color"] == [1.0, 1.0, 1.0], False
+    roughness = node.inputs["Roughness"].default_value
+    exact = not node.inputs["Normal"].is_linked
+    single_scatter = False
+    if node.type == "BSDF_DIFFUSE":
+        exact = exact and roughness == 0.0
+    else:
+        record["roughness"] = min(max(float(roughness), 0.0), 1.0)
+        exact = exact and record["color"] == [1.0, 1.0, 1.0] and node.distribution in {"GGX", "MULTI_GGX"}
+        single_scatter = node.distribution == "GGX"
+    if node.type == "BSDF_GLOSSY":
+        exact = exact and node.inputs["Anisotropy"].default_value == 0.0 and not node.inputs["Anisotropy"].is_linked
+    if node.type == "BSDF_GLASS":
+        ior = float(node.inputs["IOR"].default_value)
+        record["ior"] = max(ior, 1.0)
+        exact = exact and ior >= 1.0
+    return record, exact, single_scatter
+
+
+def shader_mix(material, node):
+    """A Mix Shader with a constant Fac of a Principled BSDF (the one the
+    exporter writes, the surface's only one) and a plain node
+    (`plain_node`), as a request record: the node's share (`weight`: Fac
+    where the node is the lower input, 1 − Fac where it is the upper) and
+    its record (`mixed`), with `plain_node`'s exactness and GGX; None for
+    any other node or mix."""
+    if node.type != "MIX_SHADER":
+        return None
+    fac, shaders = node.inputs[0], (node.inputs[1], node.inputs[2])
+    if fac.is_linked or not all(s.is_linked for s in shaders):
+        return None
+    nodes = [s.links[0].from_node for s in shaders]
+    principled = [n.type == "BSDF_PRINCIPLED" for n in nodes]
+    if principled.count(True) != 1:
+        return None
+    side = principled.index(False)
+    found = plain_node(material, nodes[side])
+    if found is None or any(n.type == "BSDF_PRINCIPLED" for n in upstream(shaders[side])):
+        return None
+    record, exact, single_scatter = found
+    share = float(min(max(fac.default_value, 0.0), 1.0))
+    return {"weight": share if side == 1 else 1.0 - share, "mixed": record}, exact, single_scatter
+
+
 def surface_shaders(depsgraph):
-    """What the exporter cannot write of surfaces without a Principled BSDF
-    (it writes glTF's default material, a white rough metal): a Diffuse,
-    Glossy or Glass BSDF straight into the Material Output with unlinked
-    Color, Roughness and IOR, for the request (colours clamped to [0, 1], an
-    IOR to ≥ 1); the names of materials with other surfaces (a Mix Shader
-    without a Principled BSDF, a Translucent BSDF, …); those of nodes Glint
-    renders only approximately (Diffuse Roughness above 0, a coloured or
-    anisotropic Glossy, a coloured Glass, a Beckmann or Ashikhmin-Shirley
-    distribution, an IOR below 1, a linked Normal); and those whose node
-    asks for GGX without multiple scattering."""
-    kinds = {"BSDF_DIFFUSE": "diffuse", "BSDF_GLOSSY": "glossy", "BSDF_GLASS": "glass"}
-    records, others, approximate, single_scatter = [], [], [], []
+    """What the exporter cannot write of surfaces: for those without a
+    Principled BSDF (it writes glTF's default material, a white rough
+    metal), a plain node straight into the Material Output (`plain_node`),
+    for the request's `bsdf_nodes`; a Mix Shader of the Principled BSDF
+    and a plain node (`shader_mix`; the exporter writes the Principled
+    BSDF alone), for its `shader_mixes`; the names of materials with other
+    surfaces (a Mix Shader of other shaders, a Translucent BSDF, …) and of
+    those whose Principled BSDF is mixed or added in other ways; those of
+    nodes Glint renders only approximately; and those whose node asks for
+    GGX without multiple scattering (a plain node's own)."""
+    records, mixes, others, mixed_otherwise, approximate, single_scatter = [], [], [], [], [], []
     for m, surface, node in fed_outputs(depsgraph, "Surface"):
-        if node.type in {"BSDF_PRINCIPLED", "EMISSION"} or any(n.type == "BSDF_PRINCIPLED" for n in upstream(surface)):
+        if node.type in {"BSDF_PRINCIPLED", "EMISSION"}:
             continue
-        inputs = [node.inputs[name] for name in ("Color", "Roughness", "IOR") if name in node.inputs]
-        if node.type not in kinds or any(i.is_linked for i in inputs):
+        found = shader_mix(m, node)
+        if found is not None:
+            mixes.append(found[0])
+            # The node's half takes the Principled BSDF's multiple
+            # scattering setting: a single-scattering GGX node is inexact.
+            _, exact, ggx = found
+            if ggx or not exact:
+                approximate.append(m.name)
+            continue
+        if any(n.type == "BSDF_PRINCIPLED" for n in upstream(surface)):
+            mixed_otherwise.append(m.name)
+            continue
+        found = plain_node(m, node)
+        if found is None:
             others.append(m.name)
             continue
-        record = {"material": m.name, "node": kinds[node.type], "color": unit_rgb(node.inputs["Color"])}
-        roughness = node.inputs["Roughness"].default_value
-        exact = not node.inputs["Normal"].is_linked
-        if node.type == "BSDF_DIFFUSE":
-            exact = exact and roughness == 0.0
-        else:
-            record["roughness"] = min(max(float(roughness), 0.0), 1.0)
-            exact = exact and record["color"] == [1.0, 1.0, 1.0] and node.distribution in {"GGX", "MULTI_GGX"}
-            if node.distribution == "GGX":
-                single_scatter.append(m.name)
-        if node.type == "BSDF_GLOSSY":
-            exact = exact and node.inputs["Anisotropy"].default_value == 0.0 and not node.inputs["Anisotropy"].is_linked
-        if node.type == "BSDF_GLASS":
-            ior = float(node.inputs["IOR"].default_value)
-            record["ior"] = max(ior, 1.0)
-            exact = exact and ior >= 1.0
-        records.append(record)
+        records.append(found[0])
+        _, exact, ggx = found
+        if ggx:
+            single_scatter.append(m.name)
         if not exact:
             approximate.append(m.name)
-    return records, others, approximate, single_scatter
+    return records, mixes, others, mixed_otherwise, approximate, single_scatter
 
 
 def volume_absorption(depsgraph):

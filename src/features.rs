@@ -104,6 +104,8 @@ pub struct Features {
     /// Lights with Blender's Cast Shadow off (lamps and punctual lights):
     /// light subpaths are off, as with `hidden_from_rays`.
     pub shadowless: usize,
+    /// Materials that mix two BSDFs (`Material::mix`): a hit draws one.
+    pub mixes: usize,
 }
 
 impl Features {
@@ -115,9 +117,21 @@ impl Features {
                 *n += 1;
             }
         }
+        // A Mix Shader's second half shades the first's triangles.
+        let mut mixes = 0;
+        for (i, m) in scene.materials.iter().enumerate() {
+            let count = used[i];
+            if let Some(mix) = m.mix.filter(|_| count > 0) {
+                if let Some(n) = used.get_mut(mix.with as usize) {
+                    *n += count;
+                    mixes += 1;
+                }
+            }
+        }
         let mut f = Features {
             punctual: scene.punctual.len(),
             shadowless: scene.punctual.iter().filter(|l| l.shadowless).count(),
+            mixes,
             portals: scene.portals.len(),
             background: scene.has_world(),
             environment: scene.environment.is_some(),
@@ -218,6 +232,9 @@ impl fmt::Display for Features {
         }
         if self.hidden_from_camera > 0 {
             on.push(format!("hidden from camera={}", self.hidden_from_camera));
+        }
+        if self.mixes > 0 {
+            on.push(format!("shader mixes={}", self.mixes));
         }
         if self.shadowless > 0 {
             on.push(format!("casting no shadow={}", self.shadowless));

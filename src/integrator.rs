@@ -423,18 +423,27 @@ impl SurfaceHit {
     // 176 bytes were copied by a memcpy that was 1.6% of the hall's time
     // (perf); 1–3% less time per sample on the benchmark scenes.
     #[inline(always)]
-    pub fn new(scene: &Scene, hit: &Hit, dir: Vec3) -> Self {
-        Self::with_normal(scene, hit, dir).0
+    pub fn new(scene: &Scene, hit: &Hit, dir: Vec3, rng: &mut Rng) -> Self {
+        Self::with_normal(scene, hit, dir, rng).0
     }
 
     /// `new`, and the interpolated shading normal on `ng`'s side before
     /// the fallback for a viewer below it (zero where there is none): a
     /// light vertex is viewed from elsewhere than its ray came from
     /// (`light_paths.rs`).
+    /// On a Mix Shader's material (`Material::mix`) the hit takes one of
+    /// its two halves, drawn by their shares: `material` and `surface`
+    /// are that half's.
     #[inline(always)]
-    pub fn with_normal(scene: &Scene, hit: &Hit, dir: Vec3) -> (Self, Vec3) {
+    pub fn with_normal(scene: &Scene, hit: &Hit, dir: Vec3, rng: &mut Rng) -> (Self, Vec3) {
         let tri = &scene.triangles[hit.triangle as usize];
-        let material = &scene.materials[tri.material as usize];
+        let mut id = tri.material;
+        if let Some(mix) = scene.materials[id as usize].mix {
+            if rng.next_f32() < mix.weight {
+                id = mix.with;
+            }
+        }
+        let material = &scene.materials[id as usize];
         let b = Barycentric::new(hit.b1, hit.b2);
         let (p, p_error) = point_on_triangle(&tri.p(), hit.b1, hit.b2);
         let face = tri.cross().normalize();
@@ -447,9 +456,9 @@ impl SurfaceHit {
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
-        let surface = surface_facing(scene, tri.material, hit.triangle, b, front_face);
+        let surface = surface_facing(scene, id, hit.triangle, b, front_face);
         let frame = Frame::from_normal(shading_normal_for(ns, ng, -dir));
-        (SurfaceHit { p, p_error, ng, frame, front_face, material: tri.material, triangle: hit.triangle, b, surface }, ns)
+        (SurfaceHit { p, p_error, ng, frame, front_face, material: id, triangle: hit.triangle, b, surface }, ns)
     }
 
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
@@ -1229,8 +1238,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             return (l, coverage);
         };
         beta = absorbed(beta, hit.t);
-        let si = SurfaceHit::new(ctx.scene, &hit, d);
-        let material = &ctx.scene.materials[si.material as usize];
+        let si = SurfaceHit::new(ctx.scene, &hit, d, rng);
+        // The triangle's own material emits, whichever half of a Mix
+        // Shader shades the hit (the halves' emission is the same, but
+        // only the first has textures).
+        let material = &ctx.scene.materials[ctx.scene.triangles[si.triangle as usize].material as usize];
         let sides = absorbing.then(|| Sides::at(&media, &ctx.scene.materials, si.material, si.front_face));
         if AREA && seen_kept {
             let mut le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);

@@ -11,7 +11,8 @@ use crate::loader::{self, LoadOptions};
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
-use crate::request::{is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, LensRequest, LightSize, RenderRequest, VolumeAbsorption};
+use crate::material::AlphaMode;
+use crate::request::{is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, LensRequest, LightSize, RenderRequest, ShaderMix, VolumeAbsorption};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -123,6 +124,7 @@ pub struct SceneExtras<'a> {
     pub coat_tints: &'a [CoatTint],
     pub volume_absorption: &'a [VolumeAbsorption],
     pub bsdf_nodes: &'a [BsdfNode],
+    pub shader_mixes: &'a [ShaderMix],
     pub default_surface: Option<[f32; 3]>,
     pub light_sizes: &'a [LightSize],
     /// The camera's shift and depth of field.
@@ -136,7 +138,7 @@ pub struct SceneExtras<'a> {
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, bsdf_nodes: &r.bsdf_nodes, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, hidden_from_rays: &r.hidden_from_rays, anisotropy_tangents: &r.anisotropy_tangents }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, bsdf_nodes: &r.bsdf_nodes, shader_mixes: &r.shader_mixes, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, hidden_from_rays: &r.hidden_from_rays, anisotropy_tangents: &r.anisotropy_tangents }
     }
 }
 
@@ -180,10 +182,25 @@ fn check_radiance(scene: &Scene) -> Result<(), String> {
 /// metal or tinted glass, which the add-on names as approximate. No coat;
 /// emission, none in such a material, stays.
 fn node_material(materials: &mut [crate::material::Material], node: &BsdfNode) -> Result<(), String> {
+    check_node(node)?;
+    for m in materials.iter_mut().filter(|m| m.name == node.material) {
+        as_node(m, node);
+    }
+    Ok(())
+}
+
+fn check_node(node: &BsdfNode) -> Result<(), String> {
     let BsdfNode { material, color, roughness, ior, .. } = node;
     if !(is_unit_rgb(color) && (0.0..=1.0).contains(roughness) && ior.is_finite() && *ior >= 1.0) {
         return Err(format!("BSDF node of '{material}' must have colour channels and roughness in [0, 1] and an IOR ≥ 1"));
     }
+    Ok(())
+}
+
+/// Material `m` made the Principled BSDF that `node` is (`node_material`);
+/// a Transparent BSDF makes it let every ray pass.
+fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
+    let BsdfNode { color, roughness, ior, .. } = node;
     let colour = Vec3::from(*color);
     // Principled glass tints what crosses by √base and what reflects by
     // its Specular Tint on F0; Cycles' Glass BSDF takes its colour on
@@ -196,10 +213,53 @@ fn node_material(materials: &mut [crate::material::Material], node: &BsdfNode) -
         BsdfNodeKind::Diffuse => (colour, Vec3::ONE, 0.0, 0.0, 0.0),
         BsdfNodeKind::Glossy => (colour, Vec3::ONE, 1.0, 1.0, 0.0),
         BsdfNodeKind::Glass => (colour * colour, colour, 0.0, 1.0, 1.0),
+        BsdfNodeKind::Transparent => {
+            (m.alpha, m.alpha_mode) = (0.0, AlphaMode::Blend);
+            return;
+        }
     };
-    for m in materials.iter_mut().filter(|m| &m.name == material) {
-        (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (base, metallic, specular, transmission, 0.0);
-        (m.roughness, m.ior, m.specular_tint) = (*roughness, *ior, tint);
+    (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (base, metallic, specular, transmission, 0.0);
+    (m.roughness, m.ior, m.specular_tint) = (*roughness, *ior, tint);
+}
+
+/// Blender's Mix Shader of a material's Principled BSDF and a plain node
+/// (`ShaderMix`), on every material of that name (hidden copies too).
+/// Cycles weighs each half, emission included, by its share: the
+/// material's emission is scaled by the Principled BSDF's share; a
+/// Transparent BSDF's share lets rays pass (alpha × that share); any
+/// other node becomes a second material without textures or emission of
+/// its own (`Material::mix`), which keeps the first's emission, alpha and
+/// ray visibility.
+fn mix_shaders(materials: &mut Vec<crate::material::Material>, mix: &ShaderMix) -> Result<(), String> {
+    let node = &mix.mixed;
+    check_node(node)?;
+    if !(0.0..=1.0).contains(&mix.weight) {
+        return Err(format!("shader mix of '{}' must have a weight in [0, 1]", node.material));
+    }
+    for id in 0..materials.len() {
+        let m = &mut materials[id];
+        if m.name != node.material || m.lamp || m.mix.is_some() {
+            continue;
+        }
+        m.emission *= 1.0 - mix.weight;
+        if node.node == BsdfNodeKind::Transparent {
+            m.alpha *= 1.0 - mix.weight;
+            if m.alpha_mode == AlphaMode::Opaque && mix.weight > 0.0 {
+                m.alpha_mode = AlphaMode::Blend;
+            }
+            continue;
+        }
+        if mix.weight == 0.0 {
+            continue;
+        }
+        let mut other = crate::material::Material { textures: None, ..m.clone() };
+        as_node(&mut other, node);
+        if mix.weight == 1.0 {
+            materials[id] = other;
+            continue;
+        }
+        materials[id].mix = Some(crate::material::Mix { with: materials.len() as u32, weight: mix.weight });
+        materials.push(other);
     }
     Ok(())
 }
@@ -272,6 +332,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     }
     for node in extras.bsdf_nodes {
         node_material(&mut scene.materials, node).map_err(|e| format!("{name}: {e}"))?;
+    }
+    for mix in extras.shader_mixes {
+        mix_shaders(&mut scene.materials, mix).map_err(|e| format!("{name}: {e}"))?;
     }
     if let (Some(colour), Some(id)) = (extras.default_surface, scene.default_material) {
         let m = &mut scene.materials[id as usize];
@@ -382,6 +445,38 @@ mod tests {
         assert!(glass.base_color == Vec3::new(0.25, 0.0625, 1.0) && glass.specular_tint == Vec3::new(0.5, 0.25, 1.0), "{glass:?}");
         for bad in [node("red", BsdfNodeKind::Diffuse, [0.5, -0.1, 0.5], 0.0, 1.5), node("red", BsdfNodeKind::Glossy, [0.5; 3], 1.5, 1.5), node("red", BsdfNodeKind::Glass, [0.5; 3], 0.0, 0.9), node("red", BsdfNodeKind::Glass, [0.5; 3], f32::NAN, 1.5)] {
             let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { bsdf_nodes: &[bad], ..SceneExtras::default() }).err().unwrap();
+            assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+        }
+    }
+
+    /// A Mix Shader in the request: a plain node's half becomes a second
+    /// material the first names with its share, which keeps the first's
+    /// emission scaled by the Principled BSDF's share; a Transparent BSDF's
+    /// share becomes alpha; a weight outside [0, 1] is one line naming the
+    /// file and the material.
+    #[test]
+    fn shader_mixes_make_second_materials_and_bad_ones_are_errors() {
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        let mix = |material: &str, weight, node| ShaderMix { weight, mixed: BsdfNode { material: material.into(), node, color: [1.0, 0.5, 0.25], roughness: 0.2, ior: 1.5 } };
+        let plain = prepare(Some(&path), &JobOptions::default(), SceneExtras::default()).unwrap();
+        let mixes = [mix("red", 0.25, BsdfNodeKind::Glossy), mix("green", 0.4, BsdfNodeKind::Transparent), mix("light", 0.5, BsdfNodeKind::Diffuse)];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { shader_mixes: &mixes, ..SceneExtras::default() }).unwrap();
+        let m = &job.scene.materials;
+        let named = |name: &str| m.iter().position(|m| m.name == name).unwrap();
+        let before = |name: &str| plain.scene.materials.iter().find(|m| m.name == name).unwrap().clone();
+        let red = &m[named("red")];
+        let Some(crate::material::Mix { with, weight }) = red.mix else { panic!("{red:?}") };
+        let glossy = &m[with as usize];
+        assert!(weight == 0.25 && glossy.metallic == 1.0 && glossy.roughness == 0.2 && glossy.base_color == Vec3::new(1.0, 0.5, 0.25) && glossy.mix.is_none(), "{glossy:?}");
+        assert_eq!(crate::material::Material { mix: None, ..red.clone() }, before("red"));
+        let green = &m[named("green")];
+        assert!(green.mix.is_none() && green.alpha == 0.6 && green.alpha_mode == AlphaMode::Blend, "{green:?}");
+        let light = &m[named("light")];
+        let diffuse = &m[light.mix.unwrap().with as usize];
+        assert!(light.emission == before("light").emission * 0.5 && diffuse.emission == light.emission && diffuse.is_pure_lambert(), "{light:?} {diffuse:?}");
+        assert_eq!(m.len(), plain.scene.materials.len() + 2);
+        for bad in [mix("red", 1.5, BsdfNodeKind::Diffuse), mix("red", f32::NAN, BsdfNodeKind::Glossy), ShaderMix { weight: 0.5, mixed: BsdfNode { ior: 0.5, ..mix("red", 0.5, BsdfNodeKind::Glass).mixed } }] {
+            let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { shader_mixes: &[bad], ..SceneExtras::default() }).err().unwrap();
             assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
         }
     }

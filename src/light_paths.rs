@@ -422,7 +422,7 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
             near += power;
         }
         // On from the side the light landed on (si.ng faces it).
-        let (si, _) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir);
+        let (si, _) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir, &mut rng);
         let dir = Frame::from_normal(si.ng).to_world(crate::sampling::cosine_hemisphere(rng.next_2d()));
         if ctx.intersect(si.spawn_origin(dir), dir, RayKind::Bounce, &mut rng).is_some() {
             onward += power;
@@ -533,7 +533,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
     }
     *rays += 1;
     let Some(hit) = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng) else { return };
-    let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir);
+    let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir, rng);
     let to_prev = -start.dir;
     let cos_in = to_prev.dot(si.ng);
     // Light subpaths are traced only with MIS (Context::traces_light_paths).
@@ -594,7 +594,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         }
         *rays += 1;
         let Some(hit) = ctx.intersect(v.hit.spawn_origin(w), w, RayKind::Bounce, rng) else { return };
-        let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, w);
+        let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, w, rng);
         let cos_next = -w.dot(si.ng);
         let t2 = hit.t * hit.t;
         let (prefix, to_unidirectional) = if v.depth == 1 { (1.0, pdf_camera * v.back) } else { (v.prefix * pdf_camera * v.back, v.to_unidirectional) };

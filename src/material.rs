@@ -151,6 +151,15 @@ impl Rays {
     }
 }
 
+/// The other half of a Mix Shader (`Material::mix`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mix {
+    /// The other material's index, which no triangle names.
+    pub with: u32,
+    /// Its share of the mix, in (0, 1).
+    pub weight: f32,
+}
+
 /// glTF's alphaMode. Cycles renders alpha as stochastic transparency, and
 /// so does Glint: camera, bounce and shadow rays alike.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -247,6 +256,12 @@ pub struct Material {
     /// Where its anisotropy's tangent comes from (a render request's
     /// `anisotropy_tangents`; Cycles' default without).
     pub anisotropy_tangent: TangentSource,
+    /// A Mix Shader of this material's BSDF and another's (Blender's Mix
+    /// Shader, constant Fac): each hit is shaded by one of the two, drawn
+    /// with these shares, which leaves every estimate's expectation that
+    /// of the mix (`SurfaceHit::with_normal`). Emission, alpha and what
+    /// rays pass are this material's, whichever is drawn.
+    pub mix: Option<Mix>,
     /// A lamp with Blender's Cast Shadow off: its light samples trace no
     /// shadow ray (every other ray meets what lies before it, as in
     /// Cycles).
@@ -292,6 +307,7 @@ impl Default for Material {
             anisotropy: 0.0,
             anisotropy_rotation: 0.0,
             anisotropy_tangent: TangentSource::default(),
+            mix: None,
             shadowless: false,
             hidden_from_camera: false,
             hidden_from_rays: Rays::NONE,

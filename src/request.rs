@@ -17,6 +17,7 @@
 //!   "volume_absorption": [ { "material": "Wine", "color": [0.8, 0.1, 0.2], "density": 12 } ],
 //!   "bsdf_nodes": [ { "material": "Clay", "node": "diffuse", "color": [0.6, 0.4, 0.3] },
 //!     { "material": "Window", "node": "glass", "color": [1, 1, 1], "roughness": 0, "ior": 1.45 } ],
+//!   "shader_mixes": [ { "weight": 0.3, "mixed": { "material": "Lacquer", "node": "glossy", "color": [1, 1, 1], "roughness": 0.1 } } ],
 //!   "hidden_from_camera": [ "Bounce card" ],
 //!   "hidden_from_rays": [ { "object": "Fill", "rays": ["shadow", "glossy"] } ],
 //!   "anisotropy_tangents": [ { "material": "Brushed", "uv_map": 0 },
@@ -60,6 +61,9 @@ pub enum BsdfNodeKind {
     Diffuse,
     Glossy,
     Glass,
+    /// A Transparent BSDF: rays pass (white only; the add-on names a
+    /// coloured one as approximate).
+    Transparent,
 }
 
 /// A material whose surface is one of Blender's plain BSDF nodes (the
@@ -82,6 +86,18 @@ impl BsdfNode {
     fn default_ior() -> f32 {
         1.5
     }
+}
+
+/// A material whose surface is a Mix Shader of its Principled BSDF (the
+/// one glTF carries) and one of Blender's plain BSDF nodes, with a
+/// constant Fac: `mixed` is the node, as a `BsdfNode` record of the
+/// material, and `weight` its share, in [0, 1] (Fac, or 1 − Fac where
+/// the Principled BSDF is the lower input).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ShaderMix {
+    pub weight: f32,
+    pub mixed: BsdfNode,
 }
 
 /// Whether a colour's channels all lie in [0, 1] (none NaN): what a tint,
@@ -142,9 +158,12 @@ pub struct RenderRequest {
     /// the glTF file's KHR_materials_volume, which Blender's exporter
     /// writes only from a glTF Material Output node).
     pub volume_absorption: Vec<VolumeAbsorption>,
-    /// Materials, by name, whose surface is a Diffuse, Glossy or Glass
-    /// BSDF node.
+    /// Materials, by name, whose surface is a Diffuse, Glossy, Glass or
+    /// Transparent BSDF node.
     pub bsdf_nodes: Vec<BsdfNode>,
+    /// Materials, by name, whose surface mixes their Principled BSDF
+    /// with such a node.
+    pub shader_mixes: Vec<ShaderMix>,
     pub area_lights: Vec<AreaLight>,
     /// Diffuse colour of primitives without a material, instead of glTF's
     /// default (white metal): Cycles renders them with its default surface,

@@ -951,6 +951,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         anisotropy,
         anisotropy_rotation,
         anisotropy_tangent: TangentSource::default(),
+        mix: None,
         shadowless: false,
         hidden_from_camera: false,
         hidden_from_rays: crate::material::Rays::NONE,

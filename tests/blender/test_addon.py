@@ -202,8 +202,11 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     request (their renders: test_materials_vs_cycles.py,
     test_glass_vs_cycles.py), with a warning where Glint renders it only
     approximately; a surface glTF cannot carry otherwise (a Translucent
-    BSDF) is named in a warning; a Mix Shader with a Principled BSDF in it
-    is the exporter's to write, and an Emission shader goes through glTF."""
+    BSDF) is named in a warning; a Mix Shader of a Principled BSDF and such
+    a node goes in the request with the node's share (its render:
+    test_materials_vs_cycles.py), any other mix of a Principled BSDF is
+    named in a warning (Glint renders the Principled BSDF alone, as the
+    exporter writes it), and an Emission shader goes through glTF."""
     build_scene(empty_scene)
     red = bpy.data.materials["Red"]
     nodes, links = red.node_tree.nodes, red.node_tree.links
@@ -245,7 +248,31 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     mix = nodes.new("ShaderNodeMixShader")
     links.new(principled.outputs["BSDF"], mix.inputs[1])
     links.new(translucent.outputs["BSDF"], mix.inputs[2])
-    assert surfaces(mix) == (None, [], None)
+    records, named, _ = surfaces(mix)
+    assert records is None and len(named) == 1 and named[0].startswith("a Principled BSDF mixed or added with other shaders otherwise"), named
+
+    def mixes():
+        request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        return request.get("shader_mixes"), [w for w in warnings if w.startswith("Red:")]
+
+    mix.inputs["Fac"].default_value = 0.25
+    links.new(glossy.outputs["BSDF"], mix.inputs[2])
+    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    glossy.distribution = "MULTI_GGX"
+    assert mixes() == ([{"weight": 0.25, "mixed": {"material": "Red", "node": "glossy", "color": [1.0, 1.0, 1.0], "roughness": 0.25}}], [])
+    # The node above the Principled BSDF takes 1 − Fac.
+    links.new(glossy.outputs["BSDF"], mix.inputs[1])
+    links.new(principled.outputs["BSDF"], mix.inputs[2])
+    assert mixes()[0][0]["weight"] == 0.75
+    transparent = nodes.new("ShaderNodeBsdfTransparent")
+    links.new(transparent.outputs["BSDF"], mix.inputs[1])
+    assert mixes() == ([{"weight": 0.75, "mixed": {"material": "Red", "node": "transparent", "color": [1.0, 1.0, 1.0]}}], [])
+    glossy.distribution = "GGX"
+    links.new(glossy.outputs["BSDF"], mix.inputs[1])
+    assert len(mixes()[1]) == 1 and "nearest Principled BSDF" in mixes()[1][0], mixes()
+    value = nodes.new("ShaderNodeValue")
+    links.new(value.outputs["Value"], mix.inputs["Fac"])
+    assert mixes()[0] is None and "otherwise than in one Mix Shader" in mixes()[1][0], mixes()
     assert surfaces(nodes.new("ShaderNodeEmission")) == (None, [], None)
 
 
