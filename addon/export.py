@@ -295,7 +295,7 @@ def render_request(depsgraph, job, width, height):
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
     bsdf_nodes, shader_mixes, other_surfaces, mixed_otherwise, approximate, node_single_scatter = surface_shaders(depsgraph)
     if mixed_otherwise:
-        warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass or Transparent BSDF is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
+        warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
     if other_surfaces:
         warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
     if approximate:
@@ -533,23 +533,27 @@ def upstream(socket):
 
 
 # Blender's plain BSDF nodes Glint renders, by the request's names.
-PLAIN_NODES = {"BSDF_DIFFUSE": "diffuse", "BSDF_GLOSSY": "glossy", "BSDF_GLASS": "glass", "BSDF_TRANSPARENT": "transparent"}
+PLAIN_NODES = {"BSDF_DIFFUSE": "diffuse", "BSDF_GLOSSY": "glossy", "BSDF_GLASS": "glass", "BSDF_TRANSPARENT": "transparent", "EMISSION": "emission"}
 
 
 def plain_node(material, node):
-    """A plain BSDF node with unlinked Color, Roughness and IOR as a
-    request record of `material` (colours clamped to [0, 1], an IOR to
-    ≥ 1), whether Glint renders it exactly (not: Diffuse Roughness above
-    0, a coloured or anisotropic Glossy, a coloured Glass or Transparent,
-    a Beckmann or Ashikhmin-Shirley distribution, an IOR below 1, a
-    linked Normal) and whether it asks for GGX without multiple
-    scattering; None for any other node."""
-    inputs = [node.inputs[name] for name in ("Color", "Roughness", "IOR") if name in node.inputs]
+    """A plain BSDF node or an Emission shader with unlinked Color,
+    Roughness, IOR and Strength as a request record of `material`
+    (colours clamped to [0, 1], an IOR to ≥ 1, a Strength to ≥ 0),
+    whether Glint renders it exactly (not: Diffuse Roughness above 0, a
+    coloured or anisotropic Glossy, a coloured Glass or Transparent, a
+    Beckmann or Ashikhmin-Shirley distribution, an IOR below 1, a linked
+    Normal, a colour clamped) and whether it asks for GGX without
+    multiple scattering; None for any other node."""
+    inputs = [node.inputs[name] for name in ("Color", "Roughness", "IOR", "Strength") if name in node.inputs]
     if node.type not in PLAIN_NODES or any(i.is_linked for i in inputs):
         return None
     record = {"material": material.name, "node": PLAIN_NODES[node.type], "color": unit_rgb(node.inputs["Color"])}
     if node.type == "BSDF_TRANSPARENT":
         return record, record["color"] == [1.0, 1.0, 1.0], False
+    if node.type == "EMISSION":
+        record["strength"] = max(float(node.inputs["Strength"].default_value), 0.0)
+        return record, list(node.inputs["Color"].default_value[:3]) == record["color"], False
     roughness = node.inputs["Roughness"].default_value
     exact = not node.inputs["Normal"].is_linked
     single_scatter = False
@@ -572,9 +576,10 @@ def shader_mix(material, node):
     """A Mix Shader with a constant Fac of a Principled BSDF (the one the
     exporter writes, the surface's only one) and a plain node
     (`plain_node`), as a request record: the node's share (`weight`: Fac
-    where the node is the lower input, 1 − Fac where it is the upper) and
-    its record (`mixed`), with `plain_node`'s exactness and GGX; None for
-    any other node or mix."""
+    where the node is the lower input, 1 − Fac where it is the upper), its
+    record (`mixed`) and, for an Emission shader, the whole emission;
+    with `plain_node`'s exactness (and an unlinked Principled Emission
+    where it counts) and GGX; None for any other node or mix."""
     if node.type != "MIX_SHADER":
         return None
     fac, shaders = node.inputs[0], (node.inputs[1], node.inputs[2])
@@ -590,7 +595,17 @@ def shader_mix(material, node):
         return None
     record, exact, single_scatter = found
     share = float(min(max(fac.default_value, 0.0), 1.0))
-    return {"weight": share if side == 1 else 1.0 - share, "mixed": record}, exact, single_scatter
+    weight = share if side == 1 else 1.0 - share
+    mix = {"weight": weight, "mixed": record}
+    if record["node"] == "emission":
+        # The exporter writes the Emission shader's emission as the
+        # material's, and drops the Principled BSDF's: the whole goes in.
+        principled = nodes[1 - side]
+        colour, strength = principled.inputs["Emission Color"], principled.inputs["Emission Strength"]
+        exact = exact and not colour.is_linked and not strength.is_linked
+        own = [c * max(float(strength.default_value), 0.0) for c in unit_rgb(colour)]
+        mix["emission"] = [(1.0 - weight) * p + weight * c * record["strength"] for p, c in zip(own, record["color"])]
+    return mix, exact, single_scatter
 
 
 def surface_shaders(depsgraph):

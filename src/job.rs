@@ -190,15 +190,16 @@ fn node_material(materials: &mut [crate::material::Material], node: &BsdfNode) -
 }
 
 fn check_node(node: &BsdfNode) -> Result<(), String> {
-    let BsdfNode { material, color, roughness, ior, .. } = node;
-    if !(is_unit_rgb(color) && (0.0..=1.0).contains(roughness) && ior.is_finite() && *ior >= 1.0) {
-        return Err(format!("BSDF node of '{material}' must have colour channels and roughness in [0, 1] and an IOR ≥ 1"));
+    let BsdfNode { material, color, roughness, ior, strength, .. } = node;
+    if !(is_unit_rgb(color) && (0.0..=1.0).contains(roughness) && ior.is_finite() && *ior >= 1.0 && strength.is_finite() && *strength >= 0.0) {
+        return Err(format!("BSDF node of '{material}' must have colour channels and roughness in [0, 1], an IOR ≥ 1 and a finite strength ≥ 0"));
     }
     Ok(())
 }
 
 /// Material `m` made the Principled BSDF that `node` is (`node_material`);
-/// a Transparent BSDF makes it let every ray pass.
+/// a Transparent BSDF makes it let every ray pass, an Emission shader a
+/// black emitter.
 fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
     let BsdfNode { color, roughness, ior, .. } = node;
     let colour = Vec3::from(*color);
@@ -217,6 +218,10 @@ fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
             (m.alpha, m.alpha_mode) = (0.0, AlphaMode::Blend);
             return;
         }
+        BsdfNodeKind::Emission => {
+            m.emission = colour * node.strength;
+            (Vec3::ZERO, Vec3::ONE, 0.0, 0.0, 0.0)
+        }
     };
     (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (base, metallic, specular, transmission, 0.0);
     (m.roughness, m.ior, m.specular_tint) = (*roughness, *ior, tint);
@@ -225,23 +230,29 @@ fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
 /// Blender's Mix Shader of a material's Principled BSDF and a plain node
 /// (`ShaderMix`), on every material of that name (hidden copies too).
 /// Cycles weighs each half, emission included, by its share: the
-/// material's emission is scaled by the Principled BSDF's share; a
-/// Transparent BSDF's share lets rays pass (alpha × that share); any
-/// other node becomes a second material without textures or emission of
-/// its own (`Material::mix`), which keeps the first's emission, alpha and
-/// ray visibility.
+/// material's emission is the Principled BSDF's × its share, plus an
+/// Emission shader's × the node's; a Transparent BSDF's share lets rays
+/// pass (alpha × the Principled BSDF's share); any other node becomes a
+/// second material without textures (`Material::mix`; an Emission
+/// shader's is black), with the first's emission, alpha and ray
+/// visibility.
 fn mix_shaders(materials: &mut Vec<crate::material::Material>, mix: &ShaderMix) -> Result<(), String> {
     let node = &mix.mixed;
     check_node(node)?;
-    if !(0.0..=1.0).contains(&mix.weight) {
-        return Err(format!("shader mix of '{}' must have a weight in [0, 1]", node.material));
+    if !(0.0..=1.0).contains(&mix.weight) || mix.emission.is_some_and(|e| !e.iter().all(|c| c.is_finite() && *c >= 0.0)) {
+        return Err(format!("shader mix of '{}' must have a weight in [0, 1] and an emission of finite numbers ≥ 0", node.material));
     }
     for id in 0..materials.len() {
         let m = &mut materials[id];
         if m.name != node.material || m.lamp || m.mix.is_some() {
             continue;
         }
-        m.emission *= 1.0 - mix.weight;
+        let node_emission = if node.node == BsdfNodeKind::Emission { Vec3::from(node.color) * node.strength } else { Vec3::ZERO };
+        m.emission = match mix.emission {
+            Some(whole) => Vec3::from(whole),
+            None => m.emission * (1.0 - mix.weight) + node_emission * mix.weight,
+        };
+        let emission = m.emission;
         if node.node == BsdfNodeKind::Transparent {
             m.alpha *= 1.0 - mix.weight;
             if m.alpha_mode == AlphaMode::Opaque && mix.weight > 0.0 {
@@ -254,6 +265,7 @@ fn mix_shaders(materials: &mut Vec<crate::material::Material>, mix: &ShaderMix) 
         }
         let mut other = crate::material::Material { textures: None, ..m.clone() };
         as_node(&mut other, node);
+        other.emission = emission;
         if mix.weight == 1.0 {
             materials[id] = other;
             continue;
@@ -430,7 +442,7 @@ mod tests {
     #[test]
     fn bsdf_nodes_reach_their_materials_and_bad_ones_are_errors() {
         let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
-        let node = |material: &str, node, color: [f32; 3], roughness, ior| BsdfNode { material: material.into(), node, color, roughness, ior };
+        let node = |material: &str, node, color: [f32; 3], roughness, ior| BsdfNode { material: material.into(), node, color, roughness, ior, strength: 0.0 };
         let nodes = [node("red", BsdfNodeKind::Diffuse, [0.5, 0.25, 0.125], 0.0, 1.5), node("green", BsdfNodeKind::Glossy, [1.0; 3], 0.3, 1.5), node("white", BsdfNodeKind::Glass, [1.0; 3], 0.1, 1.33)];
         let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { bsdf_nodes: &nodes, ..SceneExtras::default() }).unwrap();
         let named = |name: &str| job.scene.materials.iter().find(|m| m.name == name).unwrap().clone();
@@ -457,9 +469,9 @@ mod tests {
     #[test]
     fn shader_mixes_make_second_materials_and_bad_ones_are_errors() {
         let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
-        let mix = |material: &str, weight, node| ShaderMix { weight, mixed: BsdfNode { material: material.into(), node, color: [1.0, 0.5, 0.25], roughness: 0.2, ior: 1.5 } };
+        let mix = |material: &str, weight, node| ShaderMix { weight, mixed: BsdfNode { material: material.into(), node, color: [1.0, 0.5, 0.25], roughness: 0.2, ior: 1.5, strength: 4.0 }, emission: None };
         let plain = prepare(Some(&path), &JobOptions::default(), SceneExtras::default()).unwrap();
-        let mixes = [mix("red", 0.25, BsdfNodeKind::Glossy), mix("green", 0.4, BsdfNodeKind::Transparent), mix("light", 0.5, BsdfNodeKind::Diffuse)];
+        let mixes = [mix("red", 0.25, BsdfNodeKind::Glossy), mix("green", 0.4, BsdfNodeKind::Transparent), mix("light", 0.5, BsdfNodeKind::Diffuse), mix("white", 0.25, BsdfNodeKind::Emission)];
         let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { shader_mixes: &mixes, ..SceneExtras::default() }).unwrap();
         let m = &job.scene.materials;
         let named = |name: &str| m.iter().position(|m| m.name == name).unwrap();
@@ -474,8 +486,17 @@ mod tests {
         let light = &m[named("light")];
         let diffuse = &m[light.mix.unwrap().with as usize];
         assert!(light.emission == before("light").emission * 0.5 && diffuse.emission == light.emission && diffuse.is_pure_lambert(), "{light:?} {diffuse:?}");
-        assert_eq!(m.len(), plain.scene.materials.len() + 2);
-        for bad in [mix("red", 1.5, BsdfNodeKind::Diffuse), mix("red", f32::NAN, BsdfNodeKind::Glossy), ShaderMix { weight: 0.5, mixed: BsdfNode { ior: 0.5, ..mix("red", 0.5, BsdfNodeKind::Glass).mixed } }] {
+        // An Emission shader's half is black; both halves emit the mix's.
+        let white = &m[named("white")];
+        let glow = &m[white.mix.unwrap().with as usize];
+        let expected = before("white").emission * 0.75 + Vec3::new(1.0, 0.5, 0.25);
+        assert!(white.emission == expected && glow.emission == expected && glow.base_color == Vec3::ZERO && glow.specular == 0.0 && glow.metallic == 0.0, "{white:?} {glow:?}");
+        assert_eq!(m.len(), plain.scene.materials.len() + 3);
+        // The whole emission, where the request gives it.
+        let given = [ShaderMix { emission: Some([0.5, 0.25, 0.0]), ..mix("white", 0.25, BsdfNodeKind::Emission) }];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { shader_mixes: &given, ..SceneExtras::default() }).unwrap();
+        assert!(job.scene.materials.iter().filter(|m| m.name == "white").all(|m| m.emission == Vec3::new(0.5, 0.25, 0.0)));
+        for bad in [mix("red", 1.5, BsdfNodeKind::Diffuse), mix("red", f32::NAN, BsdfNodeKind::Glossy), ShaderMix { mixed: BsdfNode { ior: 0.5, ..mix("red", 0.5, BsdfNodeKind::Glass).mixed }, ..mix("red", 0.5, BsdfNodeKind::Glass) }, ShaderMix { mixed: BsdfNode { strength: -1.0, ..mix("red", 0.5, BsdfNodeKind::Emission).mixed }, ..mix("red", 0.5, BsdfNodeKind::Glass) }, ShaderMix { emission: Some([1.0, f32::INFINITY, 0.0]), ..mix("red", 0.5, BsdfNodeKind::Emission) }] {
             let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { shader_mixes: &[bad], ..SceneExtras::default() }).err().unwrap();
             assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
         }

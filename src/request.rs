@@ -64,6 +64,9 @@ pub enum BsdfNodeKind {
     /// A Transparent BSDF: rays pass (white only; the add-on names a
     /// coloured one as approximate).
     Transparent,
+    /// An Emission shader: black, emitting Color × Strength (radiance,
+    /// W·sr⁻¹·m⁻², as the Principled BSDF's Emission).
+    Emission,
 }
 
 /// A material whose surface is one of Blender's plain BSDF nodes (the
@@ -80,6 +83,9 @@ pub struct BsdfNode {
     pub roughness: f32,
     #[serde(default = "BsdfNode::default_ior")]
     pub ior: f32,
+    /// Emission: its Strength, finite and ≥ 0.
+    #[serde(default)]
+    pub strength: f32,
 }
 
 impl BsdfNode {
@@ -98,6 +104,11 @@ impl BsdfNode {
 pub struct ShaderMix {
     pub weight: f32,
     pub mixed: BsdfNode,
+    /// The material's whole emission (radiance, each channel finite and
+    /// ≥ 0), where the file's is not the Principled BSDF's: Blender's
+    /// exporter writes an Emission shader's in a mix instead.
+    #[serde(default)]
+    pub emission: Option<[f32; 3]>,
 }
 
 /// Whether a colour's channels all lie in [0, 1] (none NaN): what a tint,

@@ -267,6 +267,18 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     transparent = nodes.new("ShaderNodeBsdfTransparent")
     links.new(transparent.outputs["BSDF"], mix.inputs[1])
     assert mixes() == ([{"weight": 0.75, "mixed": {"material": "Red", "node": "transparent", "color": [1.0, 1.0, 1.0]}}], [])
+    # An Emission shader: the exporter writes its emission as the
+    # material's, so the whole (each half's × its share) goes in.
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.5, 0.0, 1.0)
+    emission.inputs["Strength"].default_value = 4.0
+    principled.inputs["Emission Color"].default_value = (0.0, 0.0, 1.0, 1.0)
+    principled.inputs["Emission Strength"].default_value = 2.0
+    links.new(emission.outputs["Emission"], mix.inputs[1])
+    record = mixes()[0][0]
+    assert record["weight"] == 0.75 and record["mixed"] == {"material": "Red", "node": "emission", "color": [1.0, 0.5, 0.0], "strength": 4.0}, record
+    assert record["emission"] == pytest.approx([3.0, 1.5, 0.5]), record
+    principled.inputs["Emission Strength"].default_value = 0.0
     glossy.distribution = "GGX"
     links.new(glossy.outputs["BSDF"], mix.inputs[1])
     assert len(mixes()[1]) == 1 and "nearest Principled BSDF" in mixes()[1][0], mixes()

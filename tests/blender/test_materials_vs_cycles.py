@@ -296,7 +296,7 @@ def test_bsdf_node_matches_cycles(empty_scene, tmp_path, kind, roughness):
     assert z.max() < 5.0, (z.max(), bias)
 
 
-@pytest.mark.parametrize("kind, fac, upper", [("Glossy", 0.3, False), ("Diffuse", 0.6, True), ("Transparent", 0.4, False)])
+@pytest.mark.parametrize("kind, fac, upper", [("Glossy", 0.3, False), ("Diffuse", 0.6, True), ("Transparent", 0.4, False), ("Emission", 0.3, False)])
 def test_shader_mix_matches_cycles(empty_scene, tmp_path, kind, fac, upper):
     """A Mix Shader of the sphere's Principled BSDF and a plain node: the
     exporter writes the Principled BSDF alone, so the mix goes in the
@@ -304,11 +304,14 @@ def test_shader_mix_matches_cycles(empty_scene, tmp_path, kind, fac, upper):
     as Cycles weighs the two: a rough red dielectric with 30% of a white
     Glossy; a rough gold metal that glows (Emission Strength 2, which the
     mix scales by the Principled BSDF's share) under 60% of a blue Diffuse
-    put above it (its share 1 − Fac); a red dielectric 40% transparent.
-    In the run that added it: +0.11%, −0.05% and +0.08%, every tile within
-    1.7, 3.0 and 2.5 σ; as the Principled BSDF alone (what the exporter
-    writes, and Glint rendered before), −21%, +35% and +9.7%, 505, 2,060
-    and 305 σ."""
+    put above it (its share 1 − Fac); a red dielectric 40% transparent; a
+    red dielectric with 30% of an orange Emission shader of Strength 3
+    (black: its share of the BSDF is gone).
+    In the run that added it: +0.11%, −0.05%, +0.08% and +0.07%, every
+    tile within 1.7, 3.0, 2.5 and 2.2 σ; as the exporter writes it (the
+    Principled BSDF alone, with the Emission shader's emission whole),
+    which Glint rendered before, −21%, +35%, +9.7% and +162%, 505, 2,060,
+    305 and 4,888 σ."""
     import json
 
     from glint import daemon
@@ -318,13 +321,15 @@ def test_shader_mix_matches_cycles(empty_scene, tmp_path, kind, fac, upper):
     sphere_scene(empty_scene, metallic, 0.4, base, **emission)
     material = bpy.data.materials["M"]
     nodes, links = material.node_tree.nodes, material.node_tree.links
-    node = nodes.new(f"ShaderNodeBsdf{kind}")
-    node.inputs["Color"].default_value = (0.2, 0.4, 0.9, 1.0) if kind == "Diffuse" else (1.0, 1.0, 1.0, 1.0)
+    node = nodes.new("ShaderNodeEmission" if kind == "Emission" else f"ShaderNodeBsdf{kind}")
+    node.inputs["Color"].default_value = {"Diffuse": (0.2, 0.4, 0.9, 1.0), "Emission": (1.0, 0.6, 0.2, 1.0)}.get(kind, (1.0, 1.0, 1.0, 1.0))
     if kind == "Glossy":
         node.inputs["Roughness"].default_value = 0.2
+    if kind == "Emission":
+        node.inputs["Strength"].default_value = 3.0
     mix = nodes.new("ShaderNodeMixShader")
     mix.inputs["Fac"].default_value = fac
-    links.new(node.outputs["BSDF"], mix.inputs[1 if upper else 2])
+    links.new(node.outputs[0], mix.inputs[1 if upper else 2])
     links.new(nodes["Principled BSDF"].outputs["BSDF"], mix.inputs[2 if upper else 1])
     output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
     links.new(mix.outputs["Shader"], output.inputs["Surface"])
