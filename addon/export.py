@@ -295,7 +295,7 @@ def render_request(depsgraph, job, width, height):
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
     bsdf_nodes, shader_mixes, other_surfaces, mixed_otherwise, approximate, node_single_scatter = surface_shaders(depsgraph)
     if mixed_otherwise:
-        warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
+        warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader, or an Add Shader with an Emission shader, is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
     if other_surfaces:
         warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
     if approximate:
@@ -575,15 +575,22 @@ def plain_node(material, node):
 def shader_mix(material, node):
     """A Mix Shader with a constant Fac of a Principled BSDF (the one the
     exporter writes, the surface's only one) and a plain node
-    (`plain_node`), as a request record: the node's share (`weight`: Fac
-    where the node is the lower input, 1 − Fac where it is the upper), its
-    record (`mixed`) and, for an Emission shader, the whole emission;
-    with `plain_node`'s exactness (and an unlinked Principled Emission
-    where it counts) and GGX; None for any other node or mix."""
-    if node.type != "MIX_SHADER":
+    (`plain_node`), or an Add Shader of a Principled BSDF and an Emission
+    shader, as a request record: the node's share (`weight`: Fac where
+    the node is the lower input, 1 − Fac where it is the upper; 0 for an
+    added Emission, which takes none of the BSDF), its record (`mixed`)
+    and, for an Emission shader, the whole emission; with `plain_node`'s
+    exactness (and an unlinked Principled Emission where it counts) and
+    GGX; None for any other node, mix or sum."""
+    if node.type == "MIX_SHADER":
+        fac, shaders = node.inputs[0], (node.inputs[1], node.inputs[2])
+        if fac.is_linked:
+            return None
+    elif node.type == "ADD_SHADER":
+        fac, shaders = None, (node.inputs[0], node.inputs[1])
+    else:
         return None
-    fac, shaders = node.inputs[0], (node.inputs[1], node.inputs[2])
-    if fac.is_linked or not all(s.is_linked for s in shaders):
+    if not all(s.is_linked for s in shaders):
         return None
     nodes = [s.links[0].from_node for s in shaders]
     principled = [n.type == "BSDF_PRINCIPLED" for n in nodes]
@@ -594,8 +601,16 @@ def shader_mix(material, node):
     if found is None or any(n.type == "BSDF_PRINCIPLED" for n in upstream(shaders[side])):
         return None
     record, exact, single_scatter = found
-    share = float(min(max(fac.default_value, 0.0), 1.0))
-    weight = share if side == 1 else 1.0 - share
+    if fac is None and record["node"] != "emission":
+        return None
+    if fac is None:
+        # A sum keeps each whole: the Principled BSDF's share is 1, and
+        # the Emission shader, black, takes none of the BSDF.
+        weight, kept, added = 0.0, 1.0, 1.0
+    else:
+        share = float(min(max(fac.default_value, 0.0), 1.0))
+        weight = share if side == 1 else 1.0 - share
+        kept, added = 1.0 - weight, weight
     mix = {"weight": weight, "mixed": record}
     if record["node"] == "emission":
         # The exporter writes the Emission shader's emission as the
@@ -604,7 +619,7 @@ def shader_mix(material, node):
         colour, strength = principled.inputs["Emission Color"], principled.inputs["Emission Strength"]
         exact = exact and not colour.is_linked and not strength.is_linked
         own = [c * max(float(strength.default_value), 0.0) for c in unit_rgb(colour)]
-        mix["emission"] = [(1.0 - weight) * p + weight * c * record["strength"] for p, c in zip(own, record["color"])]
+        mix["emission"] = [kept * p + added * c * record["strength"] for p, c in zip(own, record["color"])]
     return mix, exact, single_scatter
 
 

@@ -278,6 +278,16 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     record = mixes()[0][0]
     assert record["weight"] == 0.75 and record["mixed"] == {"material": "Red", "node": "emission", "color": [1.0, 0.5, 0.0], "strength": 4.0}, record
     assert record["emission"] == pytest.approx([3.0, 1.5, 0.5]), record
+    # An Add Shader keeps both whole: no share of the BSDF is black.
+    add = nodes.new("ShaderNodeAddShader")
+    links.new(principled.outputs["BSDF"], add.inputs[0])
+    links.new(emission.outputs["Emission"], add.inputs[1])
+    links.new(add.outputs["Shader"], output.inputs["Surface"])
+    record = mixes()[0][0]
+    assert record["weight"] == 0.0 and record["emission"] == pytest.approx([4.0, 2.0, 2.0]), record
+    links.new(glossy.outputs["BSDF"], add.inputs[1])
+    assert mixes()[0] is None and "otherwise than in one Mix Shader" in mixes()[1][0], mixes()
+    links.new(mix.outputs["Shader"], output.inputs["Surface"])
     principled.inputs["Emission Strength"].default_value = 0.0
     glossy.distribution = "GGX"
     links.new(glossy.outputs["BSDF"], mix.inputs[1])

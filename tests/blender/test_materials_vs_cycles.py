@@ -296,7 +296,7 @@ def test_bsdf_node_matches_cycles(empty_scene, tmp_path, kind, roughness):
     assert z.max() < 5.0, (z.max(), bias)
 
 
-@pytest.mark.parametrize("kind, fac, upper", [("Glossy", 0.3, False), ("Diffuse", 0.6, True), ("Transparent", 0.4, False), ("Emission", 0.3, False)])
+@pytest.mark.parametrize("kind, fac, upper", [("Glossy", 0.3, False), ("Diffuse", 0.6, True), ("Transparent", 0.4, False), ("Emission", 0.3, False), ("Emission", None, False)])
 def test_shader_mix_matches_cycles(empty_scene, tmp_path, kind, fac, upper):
     """A Mix Shader of the sphere's Principled BSDF and a plain node: the
     exporter writes the Principled BSDF alone, so the mix goes in the
@@ -306,7 +306,8 @@ def test_shader_mix_matches_cycles(empty_scene, tmp_path, kind, fac, upper):
     mix scales by the Principled BSDF's share) under 60% of a blue Diffuse
     put above it (its share 1 − Fac); a red dielectric 40% transparent; a
     red dielectric with 30% of an orange Emission shader of Strength 3
-    (black: its share of the BSDF is gone).
+    (black: its share of the BSDF is gone), and one with that Emission
+    shader added (Fac None: an Add Shader, which keeps the BSDF whole).
     In the run that added it: +0.11%, −0.05%, +0.08% and +0.07%, every
     tile within 1.7, 3.0, 2.5 and 2.2 σ; as the exporter writes it (the
     Principled BSDF alone, with the Emission shader's emission whole),
@@ -327,14 +328,17 @@ def test_shader_mix_matches_cycles(empty_scene, tmp_path, kind, fac, upper):
         node.inputs["Roughness"].default_value = 0.2
     if kind == "Emission":
         node.inputs["Strength"].default_value = 3.0
-    mix = nodes.new("ShaderNodeMixShader")
-    mix.inputs["Fac"].default_value = fac
-    links.new(node.outputs[0], mix.inputs[1 if upper else 2])
-    links.new(nodes["Principled BSDF"].outputs["BSDF"], mix.inputs[2 if upper else 1])
+    mix = nodes.new("ShaderNodeAddShader" if fac is None else "ShaderNodeMixShader")
+    first = 0 if fac is None else 1
+    if fac is not None:
+        mix.inputs["Fac"].default_value = fac
+    links.new(node.outputs[0], mix.inputs[first + (0 if upper else 1)])
+    links.new(nodes["Principled BSDF"].outputs["BSDF"], mix.inputs[first + (1 if upper else 0)])
     output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
     links.new(mix.outputs["Shader"], output.inputs["Surface"])
     z, bias, _, _ = compare(empty_scene, tmp_path, 64)
     print(f"Mix Shader with {kind} (Fac {fac}, the node {'above' if upper else 'below'}): bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
     record = json.loads(open(daemon.current().path("request.json")).read()).get("shader_mixes")
-    assert record and len(record) == 1 and record[0]["mixed"]["node"] == kind.lower() and record[0]["weight"] == pytest.approx(1 - fac if upper else fac), record
+    weight = 0.0 if fac is None else (1 - fac if upper else fac)
+    assert record and len(record) == 1 and record[0]["mixed"]["node"] == kind.lower() and record[0]["weight"] == pytest.approx(weight), record
     assert z.max() < 5.0, (z.max(), bias)
