@@ -438,10 +438,8 @@ impl SurfaceHit {
     pub fn with_normal(scene: &Scene, hit: &Hit, dir: Vec3, rng: &mut Rng) -> (Self, Vec3) {
         let tri = &scene.triangles[hit.triangle as usize];
         let mut id = tri.material;
-        if let Some(mix) = scene.materials[id as usize].mix {
-            if rng.next_f32() < mix.weight {
-                id = mix.with;
-            }
+        if scene.materials[id as usize].mix.is_some() {
+            id = half_drawn(scene, id, rng);
         }
         let material = &scene.materials[id as usize];
         let b = Barycentric::new(hit.b1, hit.b2);
@@ -463,6 +461,16 @@ impl SurfaceHit {
 
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
         offset_origin(self.p, self.p_error, self.ng, w)
+    }
+}
+
+/// The half of Mix Shader material `id` a hit takes, drawn by its share.
+#[cold]
+#[inline(never)]
+fn half_drawn(scene: &Scene, id: u32, rng: &mut Rng) -> u32 {
+    match scene.materials[id as usize].mix {
+        Some(mix) if rng.next_f32() < mix.weight => mix.with,
+        _ => id,
     }
 }
 
