@@ -1249,9 +1249,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let si = SurfaceHit::new(ctx.scene, &hit, d, rng);
         // The triangle's own material emits, whichever half of a Mix
         // Shader shades the hit (the halves' emission is the same, but
-        // only the first has textures).
-        let material = &ctx.scene.materials[ctx.scene.triangles[si.triangle as usize].material as usize];
-        let sides = absorbing.then(|| Sides::at(&media, &ctx.scene.materials, si.material, si.front_face));
+        // only the first has textures), and names its medium.
+        let own = ctx.scene.triangles[si.triangle as usize].material;
+        let material = &ctx.scene.materials[own as usize];
+        let sides = absorbing.then(|| Sides::at(&media, &ctx.scene.materials, own, si.material, si.front_face));
         if AREA && seen_kept {
             let mut le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
             if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {

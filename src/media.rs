@@ -49,11 +49,15 @@ impl Media {
     /// Media a path keeps at once; one entered beyond them is left out.
     pub const DEPTH: usize = 4;
 
-    /// The media past a surface of material `index` the path crosses, into
-    /// its mesh through a front face or out of it through a back face.
-    /// Only absorbing glass changes them.
-    pub fn crossing(&self, materials: &[Material], index: u32, front_face: bool) -> Media {
-        if !absorbs(&materials[index as usize]) {
+    /// The media past a surface the path crosses, into its mesh through a
+    /// front face or out of it through a back face: the mesh's material
+    /// `index` names the medium, and `shading`, the material that shades
+    /// the point (`index`, or the half of its Mix Shader drawn there),
+    /// says whether it is absorbing glass, the only surface that changes
+    /// them. Both halves of a mix are one medium, entered through one
+    /// and left through the other.
+    pub fn crossing(&self, materials: &[Material], index: u32, shading: u32, front_face: bool) -> Media {
+        if !absorbs(&materials[shading as usize]) {
             return *self;
         }
         let mut next = *self;
@@ -86,11 +90,12 @@ pub struct Sides {
 }
 
 impl Sides {
-    /// At a point of material `index` the path reached in the media
-    /// `here`, on its mesh's front face or its back face.
+    /// At a point of a mesh of material `index`, shaded by `shading`
+    /// (`Media::crossing`), the path reached in the media `here`, on the
+    /// mesh's front face or its back face.
     #[inline]
-    pub fn at(here: &Media, materials: &[Material], index: u32, front_face: bool) -> Self {
-        Sides { here: *here, beyond: here.crossing(materials, index, front_face) }
+    pub fn at(here: &Media, materials: &[Material], index: u32, shading: u32, front_face: bool) -> Self {
+        Sides { here: *here, beyond: here.crossing(materials, index, shading, front_face) }
     }
 
     /// The media a ray leaving along a direction at cosine `cos_ng` to the
@@ -164,25 +169,42 @@ mod tests {
         let materials = [absorbing(wine), absorbing(glass), absorbing(Vec3::ZERO), Material { metallic: 0.0, ..Material::default() }];
         let (wine_id, glass_id, ice, stone) = (0, 1, 2, 3);
         let air = Media::default();
-        let entering = Sides::at(&air, &materials, wine_id, true);
+        let entering = Sides::at(&air, &materials, wine_id, wine_id, true);
         assert_eq!((entering.toward(0.5).sigma, entering.toward(-0.5).sigma), (Vec3::ZERO, wine));
         let in_wine = *entering.toward(-0.5);
-        let leaving = Sides::at(&in_wine, &materials, wine_id, false);
+        let leaving = Sides::at(&in_wine, &materials, wine_id, wine_id, false);
         assert_eq!((leaving.toward(0.5).sigma, *leaving.toward(-0.5)), (wine, air));
         // An opaque surface inside the medium: both sides are in it.
-        let inside = Sides::at(&in_wine, &materials, stone, true);
+        let inside = Sides::at(&in_wine, &materials, stone, stone, true);
         assert_eq!((inside.toward(0.5), inside.toward(-0.5)), (&in_wine, &in_wine));
         assert_eq!(inside.transmittance(0.5, 2.0), transmittance(wine, 2.0));
         // The wine modelled into its glass's wall: in both there, the
         // glass's medium left while still in the wine; clear ice in the
         // wine keeps the wine's; a back face never entered changes nothing.
-        let both = air.crossing(&materials, glass_id, true).crossing(&materials, wine_id, true);
+        let crossing = |media: Media, index: u32, front| media.crossing(&materials, index, index, front);
+        let both = crossing(crossing(air, glass_id, true), wine_id, true);
         assert_eq!(both.sigma, wine + glass);
-        let wine_only = both.crossing(&materials, glass_id, false);
+        let wine_only = crossing(both, glass_id, false);
         assert_eq!(wine_only.sigma, wine);
-        assert_eq!(wine_only.crossing(&materials, ice, true), wine_only);
-        assert_eq!(wine_only.crossing(&materials, glass_id, false), wine_only);
-        assert_eq!(wine_only.crossing(&materials, wine_id, true), wine_only, "entered twice, counted once");
-        assert_eq!(wine_only.crossing(&materials, wine_id, false), air);
+        assert_eq!(crossing(wine_only, ice, true), wine_only);
+        assert_eq!(crossing(wine_only, glass_id, false), wine_only);
+        assert_eq!(crossing(wine_only, wine_id, true), wine_only, "entered twice, counted once");
+        assert_eq!(crossing(wine_only, wine_id, false), air);
+    }
+
+    /// A Mix Shader's two halves (job.rs) are one medium: entered through
+    /// the first half and left through the second, the path is out of it;
+    /// an opaque half lets no path cross.
+    #[test]
+    fn a_mixed_materials_halves_are_one_medium() {
+        let wine = Vec3::new(0.1, 0.2, 0.3);
+        let glass = Material { transmission: 1.0, metallic: 0.0, absorption: wine, ..Material::default() };
+        let materials = [glass.clone(), Material { roughness: 0.2, ..glass.clone() }, Material { transmission: 0.0, ..glass }];
+        let air = Media::default();
+        let inside = air.crossing(&materials, 0, 0, true);
+        assert_eq!(inside.sigma, wine);
+        assert_eq!(inside.crossing(&materials, 0, 1, false), air);
+        assert_eq!(air.crossing(&materials, 0, 1, true).crossing(&materials, 0, 0, false), air);
+        assert_eq!(inside.crossing(&materials, 0, 2, false), inside);
     }
 }
