@@ -197,11 +197,18 @@ def area_lights(depsgraph):
     return records
 
 
+def surface_objects(depsgraph):
+    """The evaluated objects other than lights, cameras and empties, once
+    each (instances share their object), sorted by name: the exporter's
+    node names."""
+    objects = {i.object.name: i.object for i in depsgraph.object_instances if i.object.type not in {"LIGHT", "CAMERA", "EMPTY"}}
+    return [objects[name] for name in sorted(objects)]
+
+
 def hidden_from_camera(depsgraph):
-    """Names of the objects (the exporter's node names) with Object ›
-    Visibility › Ray Visibility › Camera off: camera rays pass them, every
-    other ray sees them."""
-    return sorted({i.object.name for i in depsgraph.object_instances if i.object.type not in {"LIGHT", "CAMERA", "EMPTY"} and not i.object.visible_camera})
+    """Names of the objects with Object › Visibility › Ray Visibility ›
+    Camera off: camera rays pass them, every other ray sees them."""
+    return [obj.name for obj in surface_objects(depsgraph) if not obj.visible_camera]
 
 
 # Object › Visibility › Ray Visibility, but the camera's: each kind of ray
@@ -224,15 +231,7 @@ def hidden_from_rays(depsgraph):
     names) with the kinds, sorted by name. Glint's rays of those kinds
     pass them, as Cycles'; on an emitting object it renders the Shadow
     setting alone, and says so."""
-    records = {}
-    for instance in depsgraph.object_instances:
-        obj = instance.object
-        if obj.type in {"LIGHT", "CAMERA", "EMPTY"}:
-            continue
-        hidden = rays_hidden_from(obj)
-        if hidden:
-            records[obj.name] = {"object": obj.name, "rays": hidden}
-    return [records[name] for name in sorted(records)]
+    return [{"object": obj.name, "rays": hidden} for obj in surface_objects(depsgraph) if (hidden := rays_hidden_from(obj))]
 
 
 def light_settings_left_out(depsgraph):

@@ -208,20 +208,25 @@ impl<'a> Context<'a> {
         if self.features.alpha == 0 && tmin == 0.0 && !hidden {
             return self.accel.intersect(o, d, tmax);
         }
-        self.intersect_passing(o, d, tmin, tmax, hidden, rng)
+        self.intersect_passing(o, d, tmin, tmax, |triangle| hidden && self.hidden_from_camera(triangle), rng)
     }
 
     /// `intersect_between` where the ray passes some surfaces: those with
-    /// alpha as they decide, before `tmin`, and with `hidden` those hidden
-    /// from the camera. Out of line: inlined, it made every bounce's
-    /// `intersect` too long to inline in turn (1% more instructions on the
-    /// benchmark's gold sphere, which has none of these).
+    /// alpha as they decide, before `tmin`, and those `hidden` from it.
+    /// Out of line: inlined, it made every bounce's `intersect` too long to
+    /// inline in turn (1% more instructions on the benchmark's gold
+    /// sphere, which has none of these).
     #[inline(never)]
-    fn intersect_passing(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, hidden: bool, rng: &mut Rng) -> Option<Hit> {
-        let alpha = self.features.alpha > 0;
-        self.accel.intersect_where(o, d, tmax, |triangle, t, b1, b2| {
-            t >= tmin && !(hidden && self.hidden_from_camera(triangle)) && (!alpha || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
-        })
+    fn intersect_passing(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, hidden: impl Fn(u32) -> bool, rng: &mut Rng) -> Option<Hit> {
+        self.accel.intersect_where(o, d, tmax, |triangle, t, b1, b2| t >= tmin && self.stops_at(triangle, b1, b2, hidden(triangle), rng))
+    }
+
+    /// Whether a ray stops at a point of `triangle` (barycentrics `b1`,
+    /// `b2`): not if the triangle is `hidden` from it, and with alpha in
+    /// the scene, where the surface draws it opaque there.
+    #[inline]
+    fn stops_at(&self, triangle: u32, b1: f32, b2: f32, hidden: bool, rng: &mut Rng) -> bool {
+        !hidden && (self.features.alpha == 0 || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
     }
 
     /// The closest surface a BSDF sample's ray of kind `ray` (a set of
@@ -231,33 +236,23 @@ impl<'a> Context<'a> {
         if !self.features.hidden_from_rays.meets(Rays::SCATTERED) {
             return self.intersect(o, d, RayKind::Bounce, rng);
         }
-        self.intersect_hiding(o, d, ray, rng)
-    }
-
-    /// `intersect_scattered` where some surfaces are hidden from some
-    /// kinds; out of line, as `intersect_passing`.
-    #[inline(never)]
-    fn intersect_hiding(&self, o: Vec3, d: Vec3, ray: Rays, rng: &mut Rng) -> Option<Hit> {
         if let Some(log) = &self.ray_log {
             log.push(TracedRay { kind: RayKind::Bounce, origin: o, dir: d, tmax: f32::INFINITY, skip: u32::MAX });
         }
-        let alpha = self.features.alpha > 0;
-        self.accel.intersect_where(o, d, f32::INFINITY, |triangle, _, b1, b2| {
-            !self.hidden_from(triangle, ray) && (!alpha || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
-        })
+        self.intersect_passing(o, d, 0.0, f32::INFINITY, |triangle| self.hidden_from(triangle, ray), rng)
     }
 
     /// Whether rays of kind `ray` pass triangle `triangle`.
     #[inline]
     fn hidden_from(&self, triangle: u32, ray: Rays) -> bool {
-        self.scene.materials[self.scene.triangles[triangle as usize].material as usize].hidden_from_rays.meets(ray)
+        self.scene.material_of(triangle).hidden_from_rays.meets(ray)
     }
 
     /// Whether camera rays pass triangle `triangle` (its object is hidden
     /// from the camera).
     #[inline]
     pub(crate) fn hidden_from_camera(&self, triangle: u32) -> bool {
-        self.scene.materials[self.scene.triangles[triangle as usize].material as usize].hidden_from_camera
+        self.scene.material_of(triangle).hidden_from_camera
     }
 
     /// Whether the way from a point to the camera is blocked: a shadow ray
@@ -270,10 +265,7 @@ impl<'a> Context<'a> {
         if let Some(log) = &self.ray_log {
             log.push(TracedRay { kind: RayKind::Shadow, origin: o, dir: d, tmax, skip: u32::MAX });
         }
-        let alpha = self.features.alpha > 0;
-        self.accel.occluded_except_where(o, d, tmax, u32::MAX, |triangle, b1, b2| {
-            !self.hidden_from_camera(triangle) && (!alpha || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
-        })
+        self.accel.occluded_except_where(o, d, tmax, u32::MAX, |triangle, b1, b2| self.stops_at(triangle, b1, b2, self.hidden_from_camera(triangle), rng))
     }
 
     /// Whether a shadow ray is blocked, not counting triangle `skip`.
@@ -286,10 +278,7 @@ impl<'a> Context<'a> {
         if self.features.alpha == 0 && !hidden {
             return self.accel.occluded_except(o, d, tmax, skip);
         }
-        let alpha = self.features.alpha > 0;
-        self.accel.occluded_except_where(o, d, tmax, skip, |triangle, b1, b2| {
-            !(hidden && self.hidden_from(triangle, Rays::SHADOW)) && (!alpha || shading::stops_ray(self.scene, triangle, b1, b2, &mut || rng.next_f32()))
-        })
+        self.accel.occluded_except_where(o, d, tmax, skip, |triangle, b1, b2| self.stops_at(triangle, b1, b2, hidden && self.hidden_from(triangle, Rays::SHADOW), rng))
     }
 }
 
@@ -692,7 +681,7 @@ pub(crate) fn connects_from(surface: &Surface) -> bool {
 #[inline]
 fn connection_density(ctx: &Context, connect: f32, emitter: u32, cos_to_light: f32, cos_out: f32) -> f32 {
     if connect > 0.0 && cos_to_light > 0.0 {
-        let m = &ctx.scene.materials[ctx.scene.triangles[emitter as usize].material as usize];
+        let m = ctx.scene.material_of(emitter);
         ctx.lights.emission_density(m) * connect * cos_to_light * m.emission_direction_weight(cos_out)
     } else {
         0.0

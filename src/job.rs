@@ -180,7 +180,8 @@ fn check_radiance(scene: &Scene) -> Result<(), String> {
 /// every angle, as the node's constant colour); a clear Glass is
 /// Principled glass of its IOR. A coloured Glossy or Glass is that colour's
 /// metal or tinted glass, which the add-on names as approximate. No coat;
-/// emission, none in such a material, stays.
+/// emission, none in such a material, stays, but for an Emission
+/// shader's (`as_node`).
 fn node_material(materials: &mut [crate::material::Material], node: &BsdfNode) -> Result<(), String> {
     check_node(node)?;
     for m in materials.iter_mut().filter(|m| m.name == node.material) {
@@ -242,17 +243,14 @@ fn mix_shaders(materials: &mut Vec<crate::material::Material>, mix: &ShaderMix) 
     if !(0.0..=1.0).contains(&mix.weight) || mix.emission.is_some_and(|e| !e.iter().all(|c| c.is_finite() && *c >= 0.0)) {
         return Err(format!("shader mix of '{}' must have a weight in [0, 1] and an emission of finite numbers ≥ 0", node.material));
     }
+    let node_emission = if node.node == BsdfNodeKind::Emission { Vec3::from(node.color) * node.strength } else { Vec3::ZERO };
     for id in 0..materials.len() {
         let m = &mut materials[id];
         if m.name != node.material || m.lamp || m.mix.is_some() {
             continue;
         }
-        let node_emission = if node.node == BsdfNodeKind::Emission { Vec3::from(node.color) * node.strength } else { Vec3::ZERO };
-        m.emission = match mix.emission {
-            Some(whole) => Vec3::from(whole),
-            None => m.emission * (1.0 - mix.weight) + node_emission * mix.weight,
-        };
-        let emission = m.emission;
+        let emission = mix.emission.map_or(m.emission * (1.0 - mix.weight) + node_emission * mix.weight, Vec3::from);
+        m.emission = emission;
         if node.node == BsdfNodeKind::Transparent {
             m.alpha *= 1.0 - mix.weight;
             if m.alpha_mode == AlphaMode::Opaque && mix.weight > 0.0 {

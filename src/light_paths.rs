@@ -443,7 +443,7 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
 /// landed at distance `t`, from the start's point as an area sample of all
 /// of them: Le·cos·cos'/(t²·p_A).
 fn emitters_irradiance(ctx: &Context, start: &crate::lights::EmissionSample, si: &SurfaceHit, t: f32) -> f64 {
-    let m = &ctx.scene.materials[ctx.scene.triangles[start.triangle as usize].material as usize];
+    let m = ctx.scene.material_of(start.triangle);
     let p_area = ctx.lights.emission_density(m) as f64;
     if !(p_area > 0.0) {
         return 0.0;
@@ -527,7 +527,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
     if max_vertex_depth == 0 || !(start.density > 0.0) {
         return;
     }
-    let emitter = &ctx.scene.materials[ctx.scene.triangles[start.triangle as usize].material as usize];
+    let emitter = ctx.scene.material_of(start.triangle);
     if let Some(w) = B::emission_weight(emitter, start.normal.dot(start.dir)) {
         start.le *= w;
     }

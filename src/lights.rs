@@ -136,7 +136,7 @@ impl LocalTree {
             }
             of_emitter[k..k + count].fill(items.len() as u32);
             let weight = powers[k..k + count].iter().sum::<f64>() as f32;
-            let cos_spread = scene.materials[scene.triangles[triangles[k] as usize].material as usize].spread.map_or(0.0, |s| s.cos_half());
+            let cos_spread = scene.material_of(triangles[k]).spread.map_or(0.0, |s| s.cos_half());
             lights.push(TreeLight { weight, lo, hi, facing: Some((records[k].normal, double_sided(scene, triangles[k]))), cos_spread });
             items.push(TreeItem::Emitters { first: k, count, area: records[k..k + count].iter().map(|e| e.area).sum() });
             k += count;
@@ -227,7 +227,7 @@ impl Nearness {
 
 /// Whether scene triangle `t` emits from both faces.
 fn double_sided(scene: &Scene, t: u32) -> bool {
-    scene.materials[scene.triangles[t as usize].material as usize].double_sided
+    scene.material_of(t).double_sided
 }
 
 /// The cone of emitting triangles' normals (their `records`), `powers`
@@ -621,7 +621,7 @@ impl Lights {
         let local = match &self.tree {
             // The emitters are in scene order.
             Some(tree) => self.triangles.binary_search(&triangle).map_or(0.0, |k| tree.area_density(k, p, n)),
-            None => self.local_pdf_area(scene.materials[scene.triangles[triangle as usize].material as usize].emission),
+            None => self.local_pdf_area(scene.material_of(triangle).emission),
         };
         (1.0 - self.distant_probability(p, mis)) * local
     }
@@ -746,7 +746,7 @@ impl Lights {
         };
         let triangle = self.triangles[pick];
         let emitter = &self.emitters[pick];
-        let pdf_area = local * density.unwrap_or_else(|| self.local_pdf_area(scene.materials[scene.triangles[triangle as usize].material as usize].emission));
+        let pdf_area = local * density.unwrap_or_else(|| self.local_pdf_area(scene.material_of(triangle).emission));
         if !(pdf_area > 0.0) {
             return None;
         }

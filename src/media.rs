@@ -129,7 +129,7 @@ pub fn absorbs(m: &Material) -> bool {
 /// faces), the emitter is inside. One ray an emitter, at load, and only
 /// in a scene with absorbing glass.
 pub fn emitters_inside(scene: &Scene, surfaces: &Accel, emitters: &[u32]) -> bool {
-    let absorbing = |triangle: u32| absorbs(&scene.materials[scene.triangles[triangle as usize].material as usize]);
+    let absorbing = |triangle: u32| absorbs(scene.material_of(triangle));
     // Off every axis, so that it does not run along a box's faces.
     let dir = Vec3::new(0.2673, 0.5345, 0.8018);
     emitters.iter().any(|&e| {

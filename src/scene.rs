@@ -148,6 +148,13 @@ impl Scene {
         self.world_mean() != Vec3::ZERO
     }
 
+    /// The material of scene triangle `triangle` (its own: a Mix Shader's
+    /// drawn half is the hit's, `SurfaceHit::material`).
+    #[inline]
+    pub fn material_of(&self, triangle: u32) -> &Material {
+        &self.materials[self.triangles[triangle as usize].material as usize]
+    }
+
     /// Whether a triangle is lamp geometry rather than a surface.
     pub fn is_lamp(&self, triangle: &Triangle) -> bool {
         self.materials.get(triangle.material as usize).is_some_and(|m| m.lamp)
