@@ -16,8 +16,8 @@ Point, spot and sun lights go through glTF too (KHR_lights_punctual; COMPAT
 units: W/(4π) per sr, sun W/m²); their radius and Soft Falloff, and a sun's
 angle, go in the request. Not carried, or not yet rendered
 by Glint: procedural textures, a Coat IOR other than 1.5, and the
-Principled inputs Subsurface, Sheen, Thin Film and Diffuse Roughness (the
-user is warned of each), and World node setups other than a plain Background colour or an
+Principled inputs Subsurface, Sheen and Thin Film, and a linked Diffuse
+Roughness (the user is warned of each), and World node setups other than a plain Background colour or an
 equirectangular Environment Texture (with at most a Mapping node's Z
 rotation), which the request carries.
 
@@ -29,7 +29,8 @@ camera (Object › Visibility › Ray Visibility › Camera; other rays'
 visibility is warned of, not rendered), the scene camera and what
 glTF cannot say of it (Shift X and Y, Depth of Field, a panoramic camera's
 type and settings), Film › Transparent (and
-Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, samples, bounces,
+Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, Diffuse
+Roughness, samples, bounces,
 time limit, Noise Threshold and Min Samples (adaptive sampling), a Volume
 Absorption inside glass, a Diffuse, Glossy or Glass BSDF node in place of
 a Principled BSDF (the exporter writes glTF's default material), seed, the
@@ -290,6 +291,9 @@ def render_request(depsgraph, job, width, height):
     warnings.extend(principled_inputs_left_out(depsgraph))
     warnings.extend(light_settings_left_out(depsgraph))
     tints, coat_iors = coat_settings(depsgraph)
+    rough_diffuse, linked_roughness = diffuse_roughness(depsgraph)
+    if linked_roughness:
+        warnings.append(f"{', '.join(linked_roughness)}: a linked Diffuse Roughness of the Principled BSDF is not rendered by Glint (rendered as 0)")
     if coat_iors:
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
     bsdf_nodes, shader_mixes, other_surfaces, mixed_otherwise, approximate, node_single_scatter = surface_shaders(depsgraph)
@@ -298,7 +302,7 @@ def render_request(depsgraph, job, width, height):
     if other_surfaces:
         warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
     if approximate:
-        warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF at Roughness 0, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX — in a Mix Shader, as the Principled BSDF's —, a Transparent BSDF white, no Normal: exact; otherwise not)")
+        warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX — in a Mix Shader, as the Principled BSDF's —, a Transparent BSDF white, no Normal: exact; otherwise not)")
     absorption, other_volumes = volume_absorption(depsgraph)
     if other_volumes:
         warnings.append(f"{', '.join(other_volumes)}: a volume other than a Volume Absorption node with unlinked Color and Density is not rendered by Glint")
@@ -337,6 +341,8 @@ def render_request(depsgraph, job, width, height):
         request["single_scatter_materials"] = single_scatter
     if tints:
         request["coat_tints"] = tints
+    if rough_diffuse:
+        request["diffuse_roughness"] = rough_diffuse
     if absorption:
         request["volume_absorption"] = absorption
     if bsdf_nodes:
@@ -466,7 +472,7 @@ def used_materials(depsgraph):
 
 
 # Principled BSDF inputs Glint does not render, and what a warning calls them.
-PRINCIPLED_LEFT_OUT = (("Subsurface Weight", "Subsurface"), ("Sheen Weight", "Sheen"), ("Thin Film Thickness", "Thin Film"), ("Diffuse Roughness", "Diffuse Roughness"))
+PRINCIPLED_LEFT_OUT = (("Subsurface Weight", "Subsurface"), ("Sheen Weight", "Sheen"), ("Thin Film Thickness", "Thin Film"))
 
 
 def principled_inputs_left_out(depsgraph):
@@ -480,6 +486,23 @@ def principled_inputs_left_out(depsgraph):
         if labels:
             warnings.append(f"{m.name}: {', '.join(labels)} of the Principled BSDF not rendered by Glint (rendered as 0)")
     return warnings
+
+
+def diffuse_roughness(depsgraph):
+    """What glTF leaves out of Principled BSDFs with a rough diffuse base:
+    their Diffuse Roughness where it is above 0 (for the request, clamped
+    to [0, 1]; Glint renders Cycles' Oren–Nayar lobe), and the names of
+    materials where it is linked (rendered as 0)."""
+    records, linked = [], []
+    for m in used_materials(depsgraph):
+        for node in (n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"):
+            roughness = node.inputs["Diffuse Roughness"]
+            if roughness.is_linked:
+                linked.append(m.name)
+            elif roughness.default_value > 0.0:
+                records.append({"material": m.name, "roughness": min(float(roughness.default_value), 1.0)})
+            break
+    return records, linked
 
 
 def coat_settings(depsgraph):
@@ -539,8 +562,7 @@ def plain_node(material, node):
     """A plain BSDF node or an Emission shader with unlinked Color,
     Roughness, IOR and Strength as a request record of `material`
     (colours clamped to [0, 1], an IOR to ≥ 1, a Strength to ≥ 0),
-    whether Glint renders it exactly (not: Diffuse Roughness above 0, a
-    coloured or anisotropic Glossy, a coloured Glass or Transparent, a
+    whether Glint renders it exactly (not: a coloured or anisotropic Glossy, a coloured Glass or Transparent, a
     Beckmann or Ashikhmin-Shirley distribution, an IOR below 1, a linked
     Normal, a colour clamped) and whether it asks for GGX without
     multiple scattering; None for any other node."""
@@ -556,10 +578,8 @@ def plain_node(material, node):
     roughness = node.inputs["Roughness"].default_value
     exact = not node.inputs["Normal"].is_linked
     single_scatter = False
-    if node.type == "BSDF_DIFFUSE":
-        exact = exact and roughness == 0.0
-    else:
-        record["roughness"] = min(max(float(roughness), 0.0), 1.0)
+    record["roughness"] = min(max(float(roughness), 0.0), 1.0)
+    if node.type != "BSDF_DIFFUSE":
         exact = exact and record["color"] == [1.0, 1.0, 1.0] and node.distribution in {"GGX", "MULTI_GGX"}
         single_scatter = node.distribution == "GGX"
     if node.type == "BSDF_GLOSSY":

@@ -16,6 +16,10 @@
 //!   transmission lobe to weigh (bsdf/transmission.rs);
 //! * a clear coat (KHR_materials_clearcoat): without it no coat layer is
 //!   weighed (bsdf/coat.rs); the seed model has none;
+//! * rough diffuse (a request's Diffuse Roughness): a scene of Lambertian
+//!   surfaces with some rough one runs the Principled BSDF rather than
+//!   `LambertBsdf`, whose base then tests one tag for it
+//!   (bsdf/oren_nayar.rs); the seed model keeps Lambert;
 //! * no light at all: no light sampling, no random numbers drawn for it.
 //!
 //! `FeatureMode::All` forces the general kernel (every part on, the BSDF
@@ -94,6 +98,10 @@ pub struct Features {
     pub coat: usize,
     /// Anisotropic materials (KHR_materials_anisotropy).
     pub anisotropic: usize,
+    /// Materials whose diffuse base is rough (Oren–Nayar, from a render
+    /// request's Diffuse Roughness): they need the Principled kernel even
+    /// with no glossy lobe.
+    pub rough_diffuse: usize,
     /// Materials on objects hidden from the camera: camera rays test
     /// them as they pass (`Material::hidden_from_camera`).
     pub hidden_from_camera: usize,
@@ -165,6 +173,7 @@ impl Features {
             f.absorbing += crate::media::absorbs(m) as usize;
             f.coat += m.is_coated() as usize;
             f.anisotropic += (m.anisotropy > 0.0) as usize;
+            f.rough_diffuse += (m.metallic < 1.0 && crate::bsdf::oren_nayar::OrenNayar::new(m.diffuse_roughness, m.base_color).is_some()) as usize;
             f.hidden_from_camera += m.hidden_from_camera as usize;
             f.hidden_from_rays = f.hidden_from_rays.union(m.hidden_from_rays);
             f.diffuse |= m.metallic < 1.0;
@@ -230,6 +239,9 @@ impl fmt::Display for Features {
         if self.anisotropic > 0 {
             on.push(format!("anisotropic={}", self.anisotropic));
         }
+        if self.rough_diffuse > 0 {
+            on.push(format!("rough diffuse={}", self.rough_diffuse));
+        }
         if self.hidden_from_camera > 0 {
             on.push(format!("hidden from camera={}", self.hidden_from_camera));
         }
@@ -271,6 +283,9 @@ pub struct Kernel {
     pub glass: bool,
     /// A clear coat lies over the BSDF (Principled only).
     pub coat: bool,
+    /// Some material's diffuse base is rough (Principled only): the
+    /// Principled BSDF's base tests for Oren–Nayar.
+    pub rough_diffuse: bool,
 }
 
 impl Kernel {
@@ -282,16 +297,17 @@ impl Kernel {
         // Only the Principled model has a coat.
         let principled = model == BsdfModel::Principled;
         if mode == FeatureMode::All {
-            return Kernel { bsdf: general, area: true, punctual: true, lamps: true, glass: true, coat: principled };
+            return Kernel { bsdf: general, area: true, punctual: true, lamps: true, glass: true, coat: principled, rough_diffuse: principled };
         }
         let coat = principled && features.coat > 0;
         // Both models are exactly Lambert for a non-metal with specular 0
-        // (and no coat).
-        let bsdf = if features.ggx || coat { general } else { KernelBsdf::Lambert };
+        // (and no coat); the Principled one's base may be rough.
+        let bsdf = if features.ggx || coat || (principled && features.rough_diffuse > 0) { general } else { KernelBsdf::Lambert };
         // The light list decides, not the materials: an emissive triangle
         // of zero power is not sampled and adds nothing.
         let area = !lights.triangles.is_empty();
-        Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0, glass: features.transmission > 0, coat }
+        let rough_diffuse = principled && features.rough_diffuse > 0;
+        Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0, glass: features.transmission > 0, coat, rough_diffuse }
     }
 }
 
@@ -308,6 +324,9 @@ impl fmt::Display for Kernel {
         }
         if self.coat {
             parts.push("coat");
+        }
+        if self.rough_diffuse {
+            parts.push("rough diffuse");
         }
         if self.area {
             parts.push("emitters");
@@ -352,10 +371,31 @@ mod tests {
         assert_eq!((f.emitters, f.emitter_triangles), (1, 1));
         let lights = Lights::new(&s);
         let k = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::Auto);
-        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: false, glass: false, coat: false });
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: false, glass: false, coat: false, rough_diffuse: false });
         assert_eq!(f.to_string(), "diffuse, emitters=1 (1 tris), one-sided emission");
         let all = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::All);
-        assert_eq!(all, Kernel { bsdf: KernelBsdf::Principled, area: true, punctual: true, lamps: true, glass: true, coat: true });
+        assert_eq!(all, Kernel { bsdf: KernelBsdf::Principled, area: true, punctual: true, lamps: true, glass: true, coat: true, rough_diffuse: true });
+    }
+
+    /// A rough diffuse surface takes a Lambertian scene to the Principled
+    /// kernel, whose base renders it (the Lambert kernel would not); a
+    /// rough metal has no base to be rough, and the seed model keeps
+    /// Lambert.
+    #[test]
+    fn rough_diffuse_takes_the_principled_kernel() {
+        let rough = Material { diffuse_roughness: 0.5, ..lambert(0.0) };
+        let s = scene(vec![lambert(5.0), rough.clone(), Material { diffuse_roughness: 0.5, ..Material::default() }]);
+        let f = Features::of(&s);
+        assert_eq!(f.rough_diffuse, 1);
+        assert!(f.to_string().contains("rough diffuse=1"), "{f}");
+        let lights = Lights::new(&s);
+        let k = Kernel::choose(&f, &lights, BsdfModel::Principled, FeatureMode::Auto);
+        assert_eq!((k.bsdf, k.rough_diffuse), (KernelBsdf::Principled, true));
+        assert_eq!(k.to_string(), "principled + rough diffuse + emitters");
+        let lambertian = Features::of(&scene(vec![lambert(5.0), lambert(0.0)]));
+        assert_eq!(Kernel::choose(&lambertian, &lights, BsdfModel::Principled, FeatureMode::Auto).bsdf, KernelBsdf::Lambert);
+        let seed = Features::of(&scene(vec![lambert(5.0), rough]));
+        assert_eq!(Kernel::choose(&seed, &lights, BsdfModel::Seed, FeatureMode::Auto).bsdf, KernelBsdf::Lambert);
     }
 
     #[test]
@@ -367,7 +407,7 @@ mod tests {
         assert!(!f.ggx && !f.metallic, "{f:?}");
         assert_eq!((f.lamps, f.emitters), (1, 0));
         let k = Kernel::choose(&f, &Lights::new(&s), BsdfModel::Seed, FeatureMode::Auto);
-        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: true, glass: false, coat: false });
+        assert_eq!(k, Kernel { bsdf: KernelBsdf::Lambert, area: true, punctual: false, lamps: true, glass: false, coat: false, rough_diffuse: false });
     }
 
     #[test]

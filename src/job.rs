@@ -12,7 +12,7 @@ use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
 use crate::material::AlphaMode;
-use crate::request::{is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, LensRequest, LightSize, RenderRequest, ShaderMix, VolumeAbsorption};
+use crate::request::{is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, DiffuseRoughness, LensRequest, LightSize, RenderRequest, ShaderMix, VolumeAbsorption};
 use crate::scene::Scene;
 use crate::Vec3;
 use std::path::Path;
@@ -122,6 +122,7 @@ pub struct SceneExtras<'a> {
     /// Materials rendered with plain (single-scattering) GGX.
     pub single_scatter_materials: &'a [String],
     pub coat_tints: &'a [CoatTint],
+    pub diffuse_roughness: &'a [DiffuseRoughness],
     pub volume_absorption: &'a [VolumeAbsorption],
     pub bsdf_nodes: &'a [BsdfNode],
     pub shader_mixes: &'a [ShaderMix],
@@ -138,7 +139,7 @@ pub struct SceneExtras<'a> {
 
 impl<'a> From<&'a RenderRequest> for SceneExtras<'a> {
     fn from(r: &'a RenderRequest) -> Self {
-        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, volume_absorption: &r.volume_absorption, bsdf_nodes: &r.bsdf_nodes, shader_mixes: &r.shader_mixes, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, hidden_from_rays: &r.hidden_from_rays, anisotropy_tangents: &r.anisotropy_tangents }
+        SceneExtras { area_lights: &r.area_lights, single_scatter_materials: &r.single_scatter_materials, coat_tints: &r.coat_tints, diffuse_roughness: &r.diffuse_roughness, volume_absorption: &r.volume_absorption, bsdf_nodes: &r.bsdf_nodes, shader_mixes: &r.shader_mixes, default_surface: r.default_surface, light_sizes: &r.light_sizes, lens: r.lens.as_ref(), hidden_from_camera: &r.hidden_from_camera, hidden_from_rays: &r.hidden_from_rays, anisotropy_tangents: &r.anisotropy_tangents }
     }
 }
 
@@ -225,6 +226,9 @@ fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
         }
     };
     (m.base_color, m.metallic, m.specular, m.transmission, m.coat) = (base, metallic, specular, transmission, 0.0);
+    // A Diffuse BSDF's Roughness is Cycles' Oren–Nayar lobe, as the
+    // Principled BSDF's Diffuse Roughness; the other nodes have none.
+    m.diffuse_roughness = if node.node == BsdfNodeKind::Diffuse { *roughness } else { 0.0 };
     (m.roughness, m.ior, m.specular_tint) = (*roughness, *ior, tint);
 }
 
@@ -330,6 +334,14 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
             m.coat_tint = Vec3::from(*tint);
         }
     }
+    for DiffuseRoughness { material, roughness } in extras.diffuse_roughness {
+        if !(0.0..=1.0).contains(roughness) {
+            return Err(format!("{name}: diffuse roughness of '{material}' must be in [0, 1]"));
+        }
+        for m in scene.materials.iter_mut().filter(|m| &m.name == material) {
+            m.diffuse_roughness = *roughness;
+        }
+    }
     for VolumeAbsorption { material, color, density } in extras.volume_absorption {
         if !(is_unit_rgb(color) && density.is_finite() && *density >= 0.0) {
             return Err(format!("{name}: volume absorption of '{material}' must have colour channels in [0, 1] and a finite density ≥ 0"));
@@ -412,6 +424,28 @@ mod tests {
         let bad = [CoatTint { material: "red".into(), tint: [0.9, f32::NAN, 0.2] }];
         let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { coat_tints: &bad, ..SceneExtras::default() }).err().unwrap();
         assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+    }
+
+    /// A request's Diffuse Roughness reaches the material it names; one
+    /// outside [0, 1] is one line naming the file and the material. A
+    /// Diffuse BSDF node's Roughness is its material's; other nodes have
+    /// none, whatever the Principled BSDF had.
+    #[test]
+    fn diffuse_roughness_reaches_its_material_and_bad_ones_are_errors() {
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        let rough = [DiffuseRoughness { material: "red".into(), roughness: 0.7 }, DiffuseRoughness { material: "green".into(), roughness: 0.4 }];
+        let nodes = [BsdfNode { material: "green".into(), node: BsdfNodeKind::Glossy, color: [1.0; 3], roughness: 0.3, ior: 1.5, strength: 1.0 }];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { diffuse_roughness: &rough, bsdf_nodes: &nodes, ..SceneExtras::default() }).unwrap();
+        let of = |name: &str| job.scene.materials.iter().find(|m| m.name == name).unwrap().diffuse_roughness;
+        assert_eq!((of("red"), of("white"), of("green")), (0.7, 0.0, 0.0));
+        let diffuse = [BsdfNode { material: "white".into(), node: BsdfNodeKind::Diffuse, color: [0.5; 3], roughness: 0.8, ior: 1.5, strength: 1.0 }];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { bsdf_nodes: &diffuse, ..SceneExtras::default() }).unwrap();
+        assert_eq!(job.scene.materials.iter().find(|m| m.name == "white").unwrap().diffuse_roughness, 0.8);
+        for bad in [1.5, -0.1, f32::NAN] {
+            let rough = [DiffuseRoughness { material: "red".into(), roughness: bad }];
+            let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { diffuse_roughness: &rough, ..SceneExtras::default() }).err().unwrap();
+            assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+        }
     }
 
     /// A request's Volume Absorption reaches the material it names as

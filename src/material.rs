@@ -43,6 +43,8 @@ pub struct Surface {
     /// turns about the normal (`Material::anisotropy`).
     pub anisotropy: f32,
     pub anisotropy_rotation: f32,
+    /// Blender's Diffuse Roughness (0: Lambert), bsdf/oren_nayar.rs.
+    pub diffuse_roughness: f32,
     /// The direction the glossy lobes are roughest along (α_x), for an
     /// anisotropic surface: Cycles' default Tangent, not yet square to the
     /// normal nor rotated, world space from `shading::surface_at`; unit,
@@ -253,6 +255,11 @@ pub struct Material {
     /// (`VertexAttributes::anisotropy_tangent`). 0 and 0 without it.
     pub anisotropy: f32,
     pub anisotropy_rotation: f32,
+    /// Blender's Diffuse Roughness on the Principled BSDF, or a Diffuse
+    /// BSDF node's Roughness, from a render request (glTF has neither):
+    /// above 0 the base is Cycles' Oren–Nayar lobe (bsdf/oren_nayar.rs).
+    /// 0 without.
+    pub diffuse_roughness: f32,
     /// Where its anisotropy's tangent comes from (a render request's
     /// `anisotropy_tangents`; Cycles' default without).
     pub anisotropy_tangent: TangentSource,
@@ -306,6 +313,7 @@ impl Default for Material {
             specular_tint: Vec3::ONE,
             anisotropy: 0.0,
             anisotropy_rotation: 0.0,
+            diffuse_roughness: 0.0,
             anisotropy_tangent: TangentSource::default(),
             mix: None,
             shadowless: false,
@@ -343,6 +351,7 @@ impl Material {
             specular_tint: self.specular_tint,
             anisotropy: self.anisotropy,
             anisotropy_rotation: self.anisotropy_rotation,
+            diffuse_roughness: self.diffuse_roughness,
             tangent: Vec3::ZERO,
         }
     }

@@ -14,6 +14,7 @@
 //!     "size": [1, 0.5], "matrix": [16 numbers], "color": [1, 1, 1],
 //!     "power": 100, "portal": false, "spread": 1.0472 } ],
 //!   "coat_tints": [ { "material": "Car paint", "tint": [0.6, 0.1, 0.1] } ],
+//!   "diffuse_roughness": [ { "material": "Plaster", "roughness": 0.8 } ],
 //!   "volume_absorption": [ { "material": "Wine", "color": [0.8, 0.1, 0.2], "density": 12 } ],
 //!   "bsdf_nodes": [ { "material": "Clay", "node": "diffuse", "color": [0.6, 0.4, 0.3] },
 //!     { "material": "Window", "node": "glass", "color": [1, 1, 1], "roughness": 0, "ior": 1.45 } ],
@@ -40,6 +41,14 @@ use std::path::Path;
 pub struct CoatTint {
     pub material: String,
     pub tint: [f32; 3],
+}
+
+/// One material's Diffuse Roughness (Principled BSDF), in [0, 1].
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DiffuseRoughness {
+    pub material: String,
+    pub roughness: f32,
 }
 
 /// One material's Blender Volume Absorption (a Volume Absorption node on
@@ -165,6 +174,9 @@ pub struct RenderRequest {
     /// Blender's Coat Tint of coated materials, by name, where it is not
     /// white (glTF's clearcoat has no tint).
     pub coat_tints: Vec<CoatTint>,
+    /// Blender's Diffuse Roughness of Principled BSDFs, by material name,
+    /// where it is above 0 (glTF has no rough diffuse).
+    pub diffuse_roughness: Vec<DiffuseRoughness>,
     /// Glass materials, by name, with a Volume Absorption inside (replaces
     /// the glTF file's KHR_materials_volume, which Blender's exporter
     /// writes only from a glTF Material Output node).

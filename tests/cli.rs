@@ -237,7 +237,7 @@ fn the_features_line_and_the_general_kernel() {
     let dir = temp_dir("features");
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box-diffuse.gltf");
     let mut images = Vec::new();
-    for (mode, kernel) in [("auto", "kernel: lambert + emitters"), ("all", "kernel: principled + glass + coat + emitters + lamps + punctual")] {
+    for (mode, kernel) in [("auto", "kernel: lambert + emitters"), ("all", "kernel: principled + glass + coat + rough diffuse + emitters + lamps + punctual")] {
         let exr = dir.join(format!("{mode}.exr"));
         let o = glint(&["render", scene.to_str().unwrap(), "-o", exr.to_str().unwrap(), "--spp", "3", "--width", "24", "--height", "24", "--features", mode, "--light-paths", "off"]);
         let err = stderr(&o);

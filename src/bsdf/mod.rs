@@ -414,15 +414,17 @@ macro_rules! impl_bsdf {
 impl_bsdf!(LambertBsdf);
 impl_bsdf!(SeedBsdf);
 impl_bsdf!(PrincipledBsdf, evaluate; prepared principled::PrincipledLobes; reflectance reflectance);
+impl_bsdf!(RoughPrincipledBsdf, evaluate; prepared principled::PrincipledLobes; reflectance reflectance);
 
 pub mod baked;
 pub mod coat;
 pub mod dielectric;
 pub mod energy;
 pub mod microfacet;
+pub mod oren_nayar;
 pub mod principled;
 pub mod transmission;
-pub use principled::PrincipledBsdf;
+pub use principled::{PrincipledBsdf, RoughPrincipledBsdf};
 pub use coat::WithCoat;
 pub use transmission::WithGlass;
 

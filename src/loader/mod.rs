@@ -950,6 +950,8 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         specular_tint,
         anisotropy,
         anisotropy_rotation,
+        // glTF carries no rough diffuse; a render request may (job.rs).
+        diffuse_roughness: 0.0,
         anisotropy_tangent: TangentSource::default(),
         mix: None,
         shadowless: false,

@@ -223,8 +223,12 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     assert surfaces() == (None, [], None)
     diffuse = nodes.new("ShaderNodeBsdfDiffuse")
     diffuse.inputs["Color"].default_value = (0.5, 1.5, 0.25, 1.0)
-    assert surfaces(diffuse) == ([{"material": "Red", "node": "diffuse", "color": [0.5, 1.0, 0.25]}], [], None)
+    assert surfaces(diffuse) == ([{"material": "Red", "node": "diffuse", "color": [0.5, 1.0, 0.25], "roughness": 0.0}], [], None)
+    # A rough Diffuse BSDF is Cycles' Oren–Nayar, which Glint renders.
     diffuse.inputs["Roughness"].default_value = 0.5
+    assert surfaces() == ([{"material": "Red", "node": "diffuse", "color": [0.5, 1.0, 0.25], "roughness": 0.5}], [], None)
+    diffuse.inputs["Normal"].default_value = (0.0, 0.0, 1.0)
+    links.new(nodes.new("ShaderNodeNormal").outputs["Normal"], diffuse.inputs["Normal"])
     assert surfaces()[1] == ["Glint renders this BSDF node as the nearest Principled BSDF"]
     glossy = nodes.new("ShaderNodeBsdfGlossy")
     glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
@@ -299,9 +303,10 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
 
 
 def test_principled_inputs_glint_leaves_out_are_named(empty_scene):
-    """Subsurface, Sheen, Thin Film and Diffuse Roughness, which Glint does
-    not render, are named in one warning per material once used (above 0
-    or linked), and not before."""
+    """Subsurface, Sheen and Thin Film, which Glint does not render, are
+    named in one warning per material once used (above 0 or linked), and
+    not before; Diffuse Roughness goes in the request, clamped to 1, and
+    only a linked one is warned of."""
     build_scene(empty_scene)
     principled = bpy.data.materials["Red"].node_tree.nodes["Principled BSDF"]
 
@@ -314,9 +319,14 @@ def test_principled_inputs_glint_leaves_out_are_named(empty_scene):
     principled.inputs["Subsurface Weight"].default_value = 0.2
     assert named() == ["Red: Subsurface, Sheen of the Principled BSDF not rendered by Glint (rendered as 0)"]
     principled.inputs["Sheen Weight"].default_value = 0.0
+    principled.inputs["Diffuse Roughness"].default_value = 0.6
+    assert named() == ["Red: Subsurface of the Principled BSDF not rendered by Glint (rendered as 0)"]
+    request, _ = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert request["diffuse_roughness"] == [{"material": "Red", "roughness": pytest.approx(0.6)}], request
     value = bpy.data.materials["Red"].node_tree.nodes.new("ShaderNodeValue")
     bpy.data.materials["Red"].node_tree.links.new(value.outputs["Value"], principled.inputs["Diffuse Roughness"])
-    assert named() == ["Red: Subsurface, Diffuse Roughness of the Principled BSDF not rendered by Glint (rendered as 0)"]
+    request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert "diffuse_roughness" not in request and ["Red: a linked Diffuse Roughness of the Principled BSDF is not rendered by Glint (rendered as 0)"] == [w for w in warnings if "Diffuse Roughness" in w], warnings
 
 
 def test_ray_visibility_goes_in_the_request(empty_scene):

@@ -264,16 +264,40 @@ def test_anisotropic_sphere_matches_cycles(empty_scene, tmp_path, metallic, roug
     assert z.max() < 5.0, (z.max(), bias)
 
 
-@pytest.mark.parametrize("kind, roughness", [("Diffuse", 0.0), ("Glossy", 0.3), ("Glossy", 0.05)])
+@pytest.mark.parametrize("specular, roughness", [(0.5, 1.0), (0.5, 0.4), (0.0, 1.0)])
+def test_diffuse_roughness_matches_cycles(empty_scene, tmp_path, specular, roughness):
+    """Diffuse Roughness, which glTF cannot carry: it goes in the request
+    and Glint renders Cycles' Oren–Nayar base (bsdf/oren_nayar.rs), under
+    the specular layer and without one (Specular IOR Level 0, which takes
+    a scene of such surfaces off the Lambert-only kernel). In the run that
+    added it: −0.01 to +0.02%, every tile within 2.9 σ. Rendered as
+    Lambert, as before, the sphere was 9.8–27% bright (308–3,621 σ off);
+    with OpenPBR's EON as published, whose multiple scattering goes as ρ²
+    where Cycles' goes as ρ³ (the closure's weight holds ρ once more),
+    1.2–3.3% bright (32–309 σ)."""
+    import json
+
+    from glint import daemon
+
+    sphere_scene(empty_scene, 0.0, 0.5, (0.8, 0.3, 0.1), Specular_IOR_Level=specular, Diffuse_Roughness=roughness)
+    z, bias, _, _ = compare(empty_scene, tmp_path, 64)
+    print(f"Diffuse Roughness {roughness}, Specular IOR Level {specular}: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
+    record = json.loads(open(daemon.current().path("request.json")).read()).get("diffuse_roughness")
+    assert record == [{"material": "M", "roughness": pytest.approx(roughness)}], record
+    assert z.max() < 5.0, (z.max(), bias)
+
+
+@pytest.mark.parametrize("kind, roughness", [("Diffuse", 0.0), ("Diffuse", 0.8), ("Glossy", 0.3), ("Glossy", 0.05)])
 def test_bsdf_node_matches_cycles(empty_scene, tmp_path, kind, roughness):
     """A Diffuse or Glossy BSDF node, not a Principled BSDF, on the sphere:
     glTF cannot carry it (the exporter writes glTF's default, a white rough
     metal), so it goes in the request and Glint renders the Principled BSDF
     Cycles' node equals: Lambert in its Color (at Roughness 0), a white
     metal for a white Glossy (its F is 1 at every angle, as the node's
-    constant colour). In the run that added it: Diffuse 0.00%, every
-    tile within 2.3 σ (as the exporter's white metal, 100% bright and
-    2,769 σ off); Glossy at roughness 0.3 and 0.05, −0.46% and +0.30%,
+    constant colour), Cycles' Oren–Nayar at a Diffuse Roughness. In the
+    run that added it: Diffuse 0.00%, every tile within 2.3 σ (as the
+    exporter's white metal, 100% bright and 2,769 σ off); at Roughness
+    0.8, +0.01%, within 1.7 σ; Glossy at roughness 0.3 and 0.05, −0.46% and +0.30%,
     every tile within 1.5 σ."""
     import json
 
@@ -291,7 +315,7 @@ def test_bsdf_node_matches_cycles(empty_scene, tmp_path, kind, roughness):
     material.node_tree.links.new(node.outputs["BSDF"], output.inputs["Surface"])
     z, bias, _, _ = compare(empty_scene, tmp_path, 64)
     record = json.loads(open(daemon.current().path("request.json")).read())["bsdf_nodes"]
-    assert record == [{"material": "M", "node": kind.lower(), "color": pytest.approx(colour), **({"roughness": pytest.approx(roughness)} if kind != "Diffuse" else {})}], record
+    assert record == [{"material": "M", "node": kind.lower(), "color": pytest.approx(colour), "roughness": pytest.approx(roughness)}], record
     print(f"{kind} BSDF, roughness {roughness}: bias against Cycles {bias * 100:.2f} %, worst tile {z.max():.1f} σ")
     assert z.max() < 5.0, (z.max(), bias)
 
