@@ -63,7 +63,7 @@ class GlintRenderEngine(bpy.types.RenderEngine):
         job = f"{os.getpid()}-{next(_jobs)}-frame{scene.frame_current}"
         self.update_stats("", "Glint: exporting")
         export.export_scene(d.path("scene.glb"), scene.frame_current, scene.frame_subframe)
-        request, warnings = export.render_request(depsgraph, job, width, height)
+        request, warnings = export.render_request(depsgraph, job, width, height, d.job_dir)
         for w in warnings:
             self.report({"WARNING"}, f"Glint: {w}")
         d.put("request.json", export.json_bytes(request))

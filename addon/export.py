@@ -40,6 +40,7 @@ point, spot and sun lights. (The camera's Clip Start and End go through
 glTF as znear and zfar.)
 """
 
+import hashlib
 import math
 import os
 
@@ -113,11 +114,12 @@ def export_glb(path):
     os.replace(tmp, path)
 
 
-def world_background(scene):
+def world_background(scene, folder=None):
     """(radiance RGB, environment or None, problem or None) of the World: a
     plain Background node's colour × strength, or an Environment Texture
     (through an optional Mapping node) × strength, or the World colour
-    without nodes."""
+    without nodes. An image packed in the .blend is written into `folder`
+    (the job's), as the file that was packed (`packed_copy`)."""
     world = scene.world
     if world is None:
         return [0.0, 0.0, 0.0], None, None
@@ -138,8 +140,10 @@ def world_background(scene):
     if env.type != "TEX_ENVIRONMENT" or env.image is None or env.projection != "EQUIRECTANGULAR":
         return [0.0, 0.0, 0.0], None, f"the World's colour comes from {env.name}, not an equirectangular Environment Texture; Glint renders it black"
     path = bpy.path.abspath(env.image.filepath, library=env.image.library)
-    if env.image.packed_file is not None or not os.path.isfile(path):
-        return [0.0, 0.0, 0.0], None, f"the World's image {env.image.name} is not a file on disk (packed or generated); save it to render it with Glint"
+    if env.image.packed_file is not None and folder is not None:
+        path = packed_copy(env.image, folder)
+    elif env.image.packed_file is not None or not os.path.isfile(path):
+        return [0.0, 0.0, 0.0], None, f"the World's image {env.image.name} is not a file on disk (generated, or missing); save it to render it with Glint"
     rotation = 0.0
     vector = env.inputs["Vector"]
     if vector.is_linked:
@@ -148,6 +152,26 @@ def world_background(scene):
             return [0.0, 0.0, 0.0], None, f"the World's texture coordinates come from {mapping.name}; Glint takes an Environment Texture with at most a Mapping node's Z rotation"
         rotation = mapping.inputs["Rotation"].default_value[2]
     return [0.0, 0.0, 0.0], {"image": os.path.abspath(path), "strength": strength, "rotation": rotation}, None
+
+
+# Extensions of the image files Glint reads, by Blender's file format.
+IMAGE_EXTENSIONS = {"HDR": ".hdr", "OPEN_EXR": ".exr", "OPEN_EXR_MULTILAYER": ".exr", "PNG": ".png", "JPEG": ".jpg"}
+
+
+def packed_copy(image, folder):
+    """The path of a copy, in `folder`, of the file packed in `image`: its
+    bytes as they were packed, so Glint reads what Cycles reads, named by
+    their hash (written once, whole, then renamed; a leading dot keeps the
+    daemon from taking it for a change to render)."""
+    data = image.packed_file.data
+    extension = os.path.splitext(image.filepath)[1].lower() or IMAGE_EXTENSIONS.get(image.file_format, "")
+    path = os.path.join(folder, f".world-{hashlib.sha1(data).hexdigest()[:16]}{extension}")
+    if not os.path.isfile(path):
+        temporary = f"{path}.{os.getpid()}.tmp"
+        with open(temporary, "wb") as f:
+            f.write(data)
+        os.replace(temporary, path)
+    return path
 
 
 def world_output(world):
@@ -275,12 +299,13 @@ def light_sizes(depsgraph):
     return list(sizes.values())
 
 
-def render_request(depsgraph, job, width, height):
-    """The request for this render, and warnings for the user."""
+def render_request(depsgraph, job, width, height, folder=None):
+    """The request for this render, and warnings for the user; files it
+    needs beside the scene (a packed World image) go in `folder`."""
     scene = depsgraph.scene
     settings = scene.glint
     warnings = []
-    background, environment, problem = world_background(scene)
+    background, environment, problem = world_background(scene, folder)
     if problem:
         warnings.append(problem)
     if world_volume(scene):

@@ -160,7 +160,7 @@ def export_for_glint(scene, folder):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     export.export_scene(str(folder / "scene.glb"), scene.frame_current, scene.frame_subframe)
     size = scene.render.resolution_x
-    request, _ = export.render_request(depsgraph, "convergence", size, size)
+    request, _ = export.render_request(depsgraph, "convergence", size, size, str(folder))
     (folder / "request.json").write_bytes(export.json_bytes(request))
 
 

@@ -77,3 +77,39 @@ def test_environment_lit_scene_matches_cycles(empty_scene, tmp_path):
     assert request["environment"]["strength"] == 1.5 and abs(request["environment"]["rotation"] - math.radians(35)) < 1e-6
     print(f"environment: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
     assert z.max() < 5.0, (z.max(), bias)
+
+
+def test_a_packed_world_image_renders_as_its_file(empty_scene, tmp_path):
+    """An HDRI packed into the .blend (as a .blend shared with others
+    carries it) had rendered black, with a warning. The add-on now writes
+    the packed file's bytes into the job folder, and Glint renders from
+    them the image it renders from the file on disk, bit for bit."""
+    import json
+    import os
+
+    from glint import daemon, export
+    from helpers import render_rgb
+
+    world = bpy.data.worlds.new("World")
+    world.use_nodes = True
+    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = sky(tmp_path / "sky.hdr")
+    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+    empty_scene.world = world
+    bpy.ops.mesh.primitive_plane_add(size=8.0)
+    give_principled(bpy.context.object, "Floor", Base_Color=(0.6, 0.6, 0.6, 1.0), Roughness=1.0)
+    add_camera(empty_scene, (0, -5.0, 2.2), (math.radians(75), 0, 0), lens=35)
+    empty_scene.render.resolution_x = empty_scene.render.resolution_y = 16
+    empty_scene.render.engine = "GLINT"
+    empty_scene.glint.samples, empty_scene.glint.seed = 4, 1
+    on_disk = render_rgb(tmp_path / "disk.exr")
+    original = (tmp_path / "sky.hdr").read_bytes()
+
+    env.image.pack()
+    os.remove(tmp_path / "sky.hdr")
+    _, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", 16, 16)
+    assert any("not a file on disk" in w for w in warnings), warnings
+    packed = render_rgb(tmp_path / "packed.exr")
+    copy = json.loads(open(daemon.current().path("request.json")).read())["environment"]["image"]
+    assert os.path.dirname(copy) == daemon.current().job_dir and open(copy, "rb").read() == original, copy
+    assert on_disk.max() > 0.1 and np.array_equal(on_disk, packed), (on_disk.max(), np.abs(on_disk - packed).max())
