@@ -174,6 +174,22 @@ def packed_copy(image, folder):
     return path
 
 
+# Film › Pixel Filter's types, by the request's names.
+PIXEL_FILTERS = {"BOX": "box", "GAUSSIAN": "gaussian", "BLACKMAN_HARRIS": "blackman_harris"}
+
+
+def pixel_filter(cycles):
+    """Film › Pixel Filter and its Width as the request carries them:
+    Cycles' own settings, which the .blend keeps for both renderers (a box
+    of one pixel, as Cycles renders it), or Cycles' defaults
+    (Blackman-Harris, 1.5 px) without Cycles."""
+    if cycles is None:
+        return {"type": "blackman_harris", "width": 1.5}
+    kind = PIXEL_FILTERS.get(cycles.pixel_filter_type, "blackman_harris")
+    # Cycles' box is one pixel whatever the Width says (its panel greys it).
+    return {"type": kind, "width": 1.0 if kind == "box" else max(float(cycles.filter_width), 0.01)}
+
+
 def world_output(world):
     """The World's active World Output node, or None."""
     return next((n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
@@ -381,11 +397,12 @@ def render_request(depsgraph, job, width, height, folder=None):
         request["adaptive_min_samples"] = settings.adaptive_min_samples
     if settings.light_paths != "AUTO":
         request["light_paths"] = settings.light_paths == "ON"
+    cycles = getattr(scene, "cycles", None)
     if scene.render.film_transparent:
         request["transparent_film"] = True
-        cycles = getattr(scene, "cycles", None)
         if cycles is not None and cycles.film_transparent_glass:
             request["transparent_glass"] = cycles.film_transparent_roughness
+    request["pixel_filter"] = pixel_filter(cycles)
     if scene.camera is not None:
         request["camera"] = scene.camera.name
         lens = camera_lens(scene, scene.camera)

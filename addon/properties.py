@@ -91,9 +91,15 @@ class RENDER_PT_glint_sampling(bpy.types.Panel):
         col.prop(settings, "bsdf")
         col.prop(settings, "light_paths")
         col.prop(settings, "threads")
-        # Film › Transparent, and Cycles' own Transparent Glass settings
-        # (kept in the .blend by Cycles; Glint renders them the same way).
+        # Film › Transparent, and Cycles' own Pixel Filter and Transparent
+        # Glass settings (kept in the .blend by Cycles; Glint renders them
+        # the same way).
         render, cycles = context.scene.render, getattr(context.scene, "cycles", None)
+        if cycles is not None:
+            col.prop(cycles, "pixel_filter_type", text="Pixel Filter")
+            sub = col.column()
+            sub.active = cycles.pixel_filter_type != "BOX"
+            sub.prop(cycles, "filter_width", text="Width")
         col.prop(render, "film_transparent")
         if cycles is not None:
             sub = col.column()

@@ -265,8 +265,11 @@ pub struct CameraRay {
 
 /// A point as the camera sees it (`Lens::project`).
 pub struct Seen {
-    /// Row-major pixel index from the top-left.
-    pub pixel: u32,
+    /// Row-major index from the top-left of the pixel it appears in; None
+    /// just outside the image (within the `reach` asked for).
+    pub pixel: Option<u32>,
+    /// Where in the image it appears, in pixels (as `ray` takes them).
+    pub image: Vec2,
     /// Where on the lens the point is seen from: the camera's position, or
     /// a point of its aperture.
     pub lens_point: Vec3,
@@ -294,6 +297,16 @@ pub enum CameraDensity {
 }
 
 impl CameraDensity {
+    /// The density scaled by `k`: the pixel filter's at the sample's
+    /// offset.
+    #[inline]
+    pub fn scaled(self, k: f32) -> Self {
+        match self {
+            CameraDensity::PerSolidAngle(w) => CameraDensity::PerSolidAngle(w * k),
+            CameraDensity::PerArea(a) => CameraDensity::PerArea(a * k),
+        }
+    }
+
     #[inline]
     pub fn at(self, cos: f32, t2: f32) -> f32 {
         match self {
@@ -380,6 +393,11 @@ impl Lens<'_> {
 
     /// The row-major index of the pixel at image point (`x`, `y`), as
     /// `ray` takes them; None outside the image.
+    /// Whether image point (x, y) lies within `reach` pixels of the image.
+    fn within_reach(&self, x: f32, y: f32, reach: f32) -> bool {
+        x >= -reach && x < self.width + reach && y >= -reach && y < self.height + reach
+    }
+
     fn pixel_index(&self, x: f32, y: f32) -> Option<u32> {
         if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
             return None;
@@ -472,7 +490,9 @@ impl Lens<'_> {
     /// The pixel a point appears in, if any, seen from a point of the
     /// aperture drawn from `aperture_u` (as `ray` draws it): the inverse of
     /// `ray`. None where the camera is not `joinable`.
-    pub fn project(&self, p: Vec3, aperture_u: Vec2) -> Option<Seen> {
+    /// Points up to `reach` pixels outside the image are seen too (a pixel
+    /// filter wider than a pixel reaches them), with no pixel of their own.
+    pub fn project(&self, p: Vec3, aperture_u: Vec2, reach: f32) -> Option<Seen> {
         if !self.joinable() {
             return None;
         }
@@ -482,13 +502,17 @@ impl Lens<'_> {
             let v = p - c.position;
             let depth = v.dot(c.forward);
             let s = (Vec2::new(v.dot(c.right), v.dot(c.up)) - self.shift) / self.half_height;
-            let pixel = self.pixel_index((s.x / self.aspect + 1.0) * 0.5 * self.width, (1.0 - s.y) * 0.5 * self.height)?;
+            let image = Vec2::new((s.x / self.aspect + 1.0) * 0.5 * self.width, (1.0 - s.y) * 0.5 * self.height);
+            if !self.within_reach(image.x, image.y, reach) {
+                return None;
+            }
+            let pixel = self.pixel_index(image.x, image.y);
             let [near, far] = c.clip;
             if !(depth > near && depth <= far) {
                 return None;
             }
             let density = self.density(c.forward);
-            return Some(Seen { pixel, lens_point: p - c.forward * depth, to_camera: -c.forward, distance: depth, skipped: near, density });
+            return Some(Seen { pixel, image, lens_point: p - c.forward * depth, to_camera: -c.forward, distance: depth, skipped: near, density });
         }
         let (lens_point, focus) = match self.aperture_point(aperture_u) {
             None => (c.position, None),
@@ -508,8 +532,11 @@ impl Lens<'_> {
             Some(f) if cos > 0.0 => lens_point - c.position + dir * (f / cos),
             Some(_) => return None,
         };
-        let Vec2 { x, y } = self.image_point(pinhole)?;
-        let pixel = self.pixel_index(x, y)?;
+        let image = self.image_point(pinhole)?;
+        if !self.within_reach(image.x, image.y, reach) {
+            return None;
+        }
+        let pixel = self.pixel_index(image.x, image.y);
         // The depths between the clip planes, as `ray` measures them.
         let stretch = pinhole.length() / pinhole.dot(c.forward);
         let [near, far] = c.clip;
@@ -517,7 +544,7 @@ impl Lens<'_> {
         if !(distance > skipped && distance <= reach) {
             return None;
         }
-        Some(Seen { pixel, lens_point, to_camera: -dir, distance, skipped, density: self.density(dir) })
+        Some(Seen { pixel, image, lens_point, to_camera: -dir, distance, skipped, density: self.density(dir) })
     }
 }
 
@@ -556,14 +583,21 @@ mod tests {
             for (x, y) in [(0.5f32, 0.5f32), (10.25, 40.75), (63.9, 0.1), (32.3, 24.6)] {
                 for u in [Vec2::new(0.5, 0.5), Vec2::new(0.1, 0.9), Vec2::new(0.77, 0.2)] {
                     let ray = lens.ray(Vec2::new(x, y), u).unwrap();
-                    let seen = lens.project(ray.origin + ray.dir * 7.0, u).expect("in view");
-                    assert_eq!(seen.pixel, y as u32 * 64 + x as u32, "({x}, {y}) {u}");
+                    let seen = lens.project(ray.origin + ray.dir * 7.0, u, 0.0).expect("in view");
+                    assert_eq!(seen.pixel, Some(y as u32 * 64 + x as u32), "({x}, {y}) {u}");
+                    assert!((seen.image - Vec2::new(x, y)).length() < 1e-3, "{}", seen.image);
                     assert!((ray.origin - seen.lens_point).length() < 1e-6);
                     assert!((seen.to_camera + ray.dir).length() < 1e-5 && (seen.distance - 7.0).abs() < 1e-4);
                     assert!((seen.skipped - ray.tmin).abs() < 1e-5, "{} {}", seen.skipped, ray.tmin);
                 }
             }
-            assert!(lens.project(cam.position - cam.forward, Vec2::splat(0.5)).is_none());
+            assert!(lens.project(cam.position - cam.forward, Vec2::splat(0.5), 0.0).is_none());
+            // Just outside the image: seen, with no pixel, where a filter
+            // reaches that far.
+            let ray = lens.ray(Vec2::new(-0.8, 20.0), Vec2::ZERO).unwrap();
+            let p = ray.origin + ray.dir * 7.0;
+            assert!(lens.project(p, Vec2::ZERO, 0.0).is_none());
+            assert!(lens.project(p, Vec2::ZERO, 1.0).is_some_and(|s| s.pixel.is_none() && (s.image.x + 0.8).abs() < 1e-3));
         }
     }
 
@@ -587,7 +621,7 @@ mod tests {
                 let sin = (1.0 - cos * cos).max(0.0).sqrt();
                 let phi = 2.0 * std::f32::consts::PI * v;
                 let d = frame.to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), cos));
-                if lens.project(cam.position + d, Vec2::ZERO).is_some_and(|s| s.pixel == 0) {
+                if lens.project(cam.position + d, Vec2::ZERO, 0.0).is_some_and(|s| s.pixel == Some(0)) {
                     sum += lens.importance(d) as f64;
                 }
             }
@@ -619,7 +653,7 @@ mod tests {
         for pixel in [Vec2::new(0.2, 0.3), Vec2::new(32.5, 24.5), Vec2::new(60.0, 3.0)] {
             let ray = lens.ray(pixel, Vec2::ZERO).unwrap();
             assert!((depth(ray.origin + ray.dir * ray.tmin) - 0.5).abs() < 1e-5 && (depth(ray.origin + ray.dir * ray.tmax) - 20.0).abs() < 1e-3, "{pixel}");
-            let at = |d: f32| lens.project(cam.position + ray.dir * (d / ray.dir.dot(cam.forward)), Vec2::ZERO);
+            let at = |d: f32| lens.project(cam.position + ray.dir * (d / ray.dir.dot(cam.forward)), Vec2::ZERO, 0.0);
             assert!(at(0.4).is_none() && at(20.5).is_none());
             let seen = at(2.0).unwrap();
             assert!((seen.skipped - seen.distance * 0.25).abs() < 1e-5);
@@ -763,11 +797,11 @@ mod tests {
         }
         // A point is seen along −forward, from where on the image plane the
         // ray through it starts, at its depth, beyond Clip Start only.
-        let seen = lens.project(Vec3::new(2.5, 2.75, -1.0), Vec2::ZERO).unwrap();
+        let seen = lens.project(Vec3::new(2.5, 2.75, -1.0), Vec2::ZERO, 0.0).unwrap();
         let ray = lens.ray(Vec2::new(150.0, 25.0), Vec2::ZERO).unwrap();
-        assert_eq!((seen.pixel, seen.to_camera, seen.distance, seen.skipped), (25 * 200 + 150, Vec3::Z, 4.0, 0.25));
+        assert_eq!((seen.pixel, seen.to_camera, seen.distance, seen.skipped), (Some(25 * 200 + 150), Vec3::Z, 4.0, 0.25));
         assert!((seen.lens_point - ray.origin).length() < 1e-5, "{} {}", seen.lens_point, ray.origin);
-        assert!(lens.project(Vec3::new(1.0, 2.0, 2.9), Vec2::ZERO).is_none() && lens.project(Vec3::new(1.0, 2.0, -7.5), Vec2::ZERO).is_none());
+        assert!(lens.project(Vec3::new(1.0, 2.0, 2.9), Vec2::ZERO, 0.0).is_none() && lens.project(Vec3::new(1.0, 2.0, -7.5), Vec2::ZERO, 0.0).is_none());
         // A pixel is 0.03 × 0.03 m: its samples land at 1/A per unit area.
         assert_eq!(seen.density, CameraDensity::PerArea(1.0 / (0.03 * 0.03)));
         assert!(Camera::from_world("p".into(), &world, 1.0, None).unwrap().lens(64, 64).pinhole());

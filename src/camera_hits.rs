@@ -137,17 +137,19 @@ impl<'a> CameraHits<'a> {
     /// hidden from the camera are not binned, and camera rays pass them;
     /// a scene with none may give no materials.
     #[allow(clippy::too_many_arguments)]
-    pub fn new(accel: &Accel, triangles: &'a [Triangle], materials: &[Material], lens: &Lens, width: u32, height: u32, tile: u32, samples: u32) -> Option<Self> {
+    /// `spread`: how far past its own pixel a pixel's samples reach (the
+    /// pixel filter's radius less half a pixel; 0 for the one-pixel box).
+    pub fn new(accel: &Accel, triangles: &'a [Triangle], materials: &[Material], lens: &Lens, width: u32, height: u32, tile: u32, samples: u32, spread: f32) -> Option<Self> {
         let rays = width as f64 * height as f64 * samples as f64;
         if accel.triangle_count() as f64 * 2.0 > rays {
             return None;
         }
-        Self::within(accel, triangles, materials, lens, width, height, tile, MAX_TESTS_PER_PIXEL)
+        Self::within(accel, triangles, materials, lens, width, height, tile, MAX_TESTS_PER_PIXEL, spread)
     }
 
     /// Binned unless that makes more than `max_tests` tests per pixel.
     #[allow(clippy::too_many_arguments)]
-    fn within(accel: &Accel, triangles: &'a [Triangle], materials: &[Material], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64) -> Option<Self> {
+    fn within(accel: &Accel, triangles: &'a [Triangle], materials: &[Material], lens: &Lens, width: u32, height: u32, tile: u32, max_tests: f64, spread: f32) -> Option<Self> {
         // An orthographic camera's rays share a direction, not an origin,
         // and an aperture's rays leave from all over it.
         if width > u16::MAX as u32 || height > u16::MAX as u32 || !lens.pinhole() {
@@ -165,7 +167,7 @@ impl<'a> CameraHits<'a> {
                 if materials.get(t.material as usize).is_some_and(|m| m.hidden_from_camera) {
                     continue;
                 }
-                if let Some(rect) = image_rect(lens, t.p().map(|p| p - origin), width, height) {
+                if let Some(rect) = image_rect(lens, t.p().map(|p| p - origin), width, height, spread) {
                     tests += (rect[2] - rect[0] + 1) as f64 * (rect[3] - rect[1] + 1) as f64;
                     if tests > budget {
                         return None;
@@ -280,7 +282,7 @@ fn for_tiles(rect: [u16; 4], tile: u32, tiles_x: u32, mut each: impl FnMut(usize
 /// triangle reaching behind the camera is cut at a depth so small that
 /// none of it nearer than that can be in view, unless its plane passes
 /// that near the camera: then its image may be anywhere.
-fn image_rect(lens: &Lens, v: [Vec3; 3], width: u32, height: u32) -> Option<[u32; 4]> {
+fn image_rect(lens: &Lens, v: [Vec3; 3], width: u32, height: u32, spread: f32) -> Option<[u32; 4]> {
     let forward = lens.forward();
     let z = v.map(|q| q.dot(forward));
     let whole = Some([0, 0, width - 1, height - 1]);
@@ -334,17 +336,18 @@ fn image_rect(lens: &Lens, v: [Vec3; 3], width: u32, height: u32) -> Option<[u32
     for q in &points[1..count] {
         (lo, hi) = (lo.min(*q), hi.max(*q));
     }
-    clamp_rect(lo, hi, width, height)
+    clamp_rect(lo, hi, width, height, spread)
 }
 
-fn clamp_rect(lo: Vec2, hi: Vec2, width: u32, height: u32) -> Option<[u32; 4]> {
+fn clamp_rect(lo: Vec2, hi: Vec2, width: u32, height: u32, spread: f32) -> Option<[u32; 4]> {
     let (w, h) = (width as f32, height as f32);
-    if !(hi.x >= -MARGIN && hi.y >= -MARGIN && lo.x < w + MARGIN && lo.y < h + MARGIN) {
+    let margin = MARGIN + spread;
+    if !(hi.x >= -margin && hi.y >= -margin && lo.x < w + margin && lo.y < h + margin) {
         return None;
     }
-    // Pixel x's samples lie in [x, x + 1). `as` saturates: a corner at
-    // infinity is the image's edge.
-    let (lo, hi) = (lo - Vec2::splat(MARGIN), hi + Vec2::splat(MARGIN));
+    // Pixel x's samples lie in [x − spread, x + 1 + spread). `as`
+    // saturates: a corner at infinity is the image's edge.
+    let (lo, hi) = (lo - Vec2::splat(margin), hi + Vec2::splat(margin));
     let x0 = lo.x.floor().max(0.0) as u32;
     let y0 = lo.y.floor().max(0.0) as u32;
     let x1 = (hi.x.floor().max(0.0) as u32).min(width - 1);
@@ -423,7 +426,7 @@ mod tests {
     fn agreement(triangles: &[Triangle], camera: &Camera, width: u32, height: u32, samples: u32) -> (usize, usize, usize) {
         let (accel, _) = Accel::build(triangles);
         let lens = camera.lens(width, height);
-        let hits = CameraHits::within(&accel, triangles, &[], &lens, width, height, 16, f64::INFINITY).expect("no budget");
+        let hits = CameraHits::within(&accel, triangles, &[], &lens, width, height, 16, f64::INFINITY, 0.0).expect("no budget");
         let mut rays = TileRays::new(16);
         let (mut count, mut differ, mut settled) = (0, 0, 0);
         let mut rng = Rng::new(7, 3);
@@ -503,7 +506,7 @@ mod tests {
         let (accel, _) = Accel::build(&triangles);
         let (w, h) = (64, 64);
         let lens = camera.lens(w, h);
-        let hits = CameraHits::within(&accel, &triangles, &[], &lens, w, h, 16, f64::INFINITY).unwrap();
+        let hits = CameraHits::within(&accel, &triangles, &[], &lens, w, h, 16, f64::INFINITY, 0.0).unwrap();
         let mut rays = TileRays::new(16);
         // Inside the outline of the sphere's inscribed polyhedron.
         let cos_inside = (1.0 - (0.99 * radius / 4.0f32).powi(2)).sqrt();
@@ -544,7 +547,7 @@ mod tests {
         let camera = camera(Vec3::ZERO, Vec3::NEG_Z);
         let (accel, _) = Accel::build(&triangles);
         let lens = camera.lens(32, 32);
-        let hits = CameraHits::within(&accel, &triangles, &[], &lens, 32, 32, 16, f64::INFINITY).unwrap();
+        let hits = CameraHits::within(&accel, &triangles, &[], &lens, 32, 32, 16, f64::INFINITY, 0.0).unwrap();
         let mut rays = TileRays::new(16);
         let mut on_an_edge = 0;
         for (x0, y0) in [(0, 0), (16, 0), (0, 16), (16, 16)] {
@@ -573,14 +576,14 @@ mod tests {
         // Large enough for the budget: ~3 tests a pixel.
         let (w, h) = (128, 96);
         let lens = camera.lens(w, h);
-        let hits = CameraHits::new(&accel, &triangles, &[], &lens, w, h, 16, 1).unwrap();
+        let hits = CameraHits::new(&accel, &triangles, &[], &lens, w, h, 16, 1, 0.0).unwrap();
         assert!(hits.tests_per_pixel() < MAX_TESTS_PER_PIXEL as f32, "{}", hits.tests_per_pixel());
         // The same sphere's triangles at a few pixels each, many a pixel.
         let small = camera.lens(12, 8);
-        assert!(CameraHits::new(&accel, &triangles, &[], &small, 12, 8, 16, 1 + 2 * n / 96).is_none());
+        assert!(CameraHits::new(&accel, &triangles, &[], &small, 12, 8, 16, 1 + 2 * n / 96, 0.0).is_none());
         // Fewer rays than twice the triangles: one sample of a 24×16 image.
         let tiny = camera.lens(24, 16);
         assert!(n > 24 * 16 / 2);
-        assert!(CameraHits::new(&accel, &triangles, &[], &tiny, 24, 16, 16, 1).is_none());
+        assert!(CameraHits::new(&accel, &triangles, &[], &tiny, 24, 16, 16, 1, 0.0).is_none());
     }
 }

@@ -8,6 +8,7 @@ use crate::bsdf::BsdfModel;
 use crate::features::FeatureMode;
 use crate::lamps::AreaLight;
 use crate::loader::{self, LoadOptions};
+use crate::pixel_filter::PixelFilter;
 use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
@@ -51,6 +52,8 @@ pub struct JobOptions {
     /// Film › Transparent Glass's roughness threshold
     /// (`RenderSettings::transparent_glass`).
     pub transparent_glass: Option<f32>,
+    /// Film › Pixel Filter and its Width (`RenderSettings::pixel_filter`).
+    pub pixel_filter: Option<crate::pixel_filter::FilterRequest>,
 }
 
 impl JobOptions {
@@ -78,6 +81,7 @@ impl JobOptions {
             light_paths: self.light_paths.or(f.light_paths),
             transparent: self.transparent.or(f.transparent),
             transparent_glass: self.transparent_glass.or(f.transparent_glass),
+            pixel_filter: self.pixel_filter.or(f.pixel_filter),
         }
     }
 }
@@ -105,6 +109,7 @@ impl From<&RenderRequest> for JobOptions {
             environment: r.environment.clone(),
             transparent: r.transparent_film,
             transparent_glass: r.transparent_glass,
+            pixel_filter: r.pixel_filter,
         }
     }
 }
@@ -309,6 +314,10 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         None => loader::load_bytes(crate::DEFAULT_SCENE.as_bytes(), None, crate::DEFAULT_SCENE_NAME, &load),
     }
     .map_err(|e| e.to_string())?;
+    let pixel_filter = match &options.pixel_filter {
+        None => PixelFilter::default(),
+        Some(r) => PixelFilter::from_request(r).ok_or_else(|| format!("{name}: the pixel filter's width must be finite and ≥ 0.01 pixels"))?,
+    };
     if options.transparent_glass.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
         return Err(format!("{name}: transparent glass's roughness threshold must be finite and ≥ 0"));
     }
@@ -403,6 +412,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         strategies: Default::default(),
         transparent: options.transparent.unwrap_or(false),
         transparent_glass: options.transparent_glass,
+        pixel_filter,
         adaptive: options.noise_threshold.filter(|t| *t > 0.0).map(|threshold| Adaptive { threshold, min_samples: options.adaptive_min_samples.unwrap_or(0) }),
     };
     Ok(Job { scene, settings, budget: Budget { samples, time, paced: true } })
@@ -445,6 +455,22 @@ mod tests {
             let rough = [DiffuseRoughness { material: "red".into(), roughness: bad }];
             let err = prepare(Some(&path), &JobOptions::default(), SceneExtras { diffuse_roughness: &rough, ..SceneExtras::default() }).err().unwrap();
             assert!(err.contains("cornell-box.gltf") && err.contains("'red'") && !err.contains('\n'), "{err}");
+        }
+    }
+
+    /// A request's pixel filter reaches the settings; a width that is not
+    /// finite or below 0.01 pixels is one line naming the file.
+    #[test]
+    fn the_pixel_filter_reaches_the_settings_and_a_bad_width_is_an_error() {
+        use crate::pixel_filter::{FilterKind, FilterRequest};
+        let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf"));
+        let options = |width| JobOptions { pixel_filter: Some(FilterRequest { kind: FilterKind::BlackmanHarris, width }), ..JobOptions::default() };
+        let job = prepare(Some(&path), &options(1.5), SceneExtras::default()).unwrap();
+        assert!(!job.settings.pixel_filter.is_unit_box() && job.settings.pixel_filter.radius() == 1.5);
+        assert!(prepare(Some(&path), &JobOptions::default(), SceneExtras::default()).unwrap().settings.pixel_filter.is_unit_box());
+        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let err = prepare(Some(&path), &options(bad), SceneExtras::default()).err().unwrap();
+            assert!(err.contains("cornell-box.gltf") && err.contains("pixel filter") && !err.contains('\n'), "{err}");
         }
     }
 

@@ -28,6 +28,7 @@ pub mod material;
 pub mod media;
 pub mod output;
 pub mod panorama;
+pub mod pixel_filter;
 pub mod parallelogram;
 pub mod progressive;
 pub mod portals;

@@ -249,8 +249,8 @@ impl LightVertices {
                         if j < count {
                             vertices.push(ConnectionVertex::of(v));
                         }
-                        if let Some(splat) = tracing.filter(|t| j < t.subpaths as u32).and_then(|t| t.splat::<B>(ctx, prepared, v, rng, &mut rays.shadow)) {
-                            splats.push(splat);
+                        if let Some(t) = tracing.filter(|t| j < t.subpaths as u32) {
+                            t.splat::<B>(ctx, prepared, v, rng, &mut rays.shadow, &mut splats);
                         }
                     });
                 }

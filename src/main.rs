@@ -8,6 +8,7 @@ use glint::integrator::Context;
 use glint::job::{self, Job, JobOptions};
 use glint::loader;
 use glint::output;
+use glint::pixel_filter::{FilterKind, FilterRequest};
 use glint::progressive::{render_progressive, Budget};
 use glint::render::{render_pass, Film, LightPaths, PassStats};
 use glint::request::EnvironmentRequest;
@@ -110,6 +111,15 @@ struct RenderOptions {
     /// than this is transparency too [default: the request's, else off].
     #[arg(long, value_name = "ROUGHNESS")]
     transparent_glass: Option<f32>,
+    /// Blender's Film › Pixel Filter: box, gaussian or blackman-harris,
+    /// drawn by importance as Cycles draws it [default: the request's,
+    /// else box].
+    #[arg(long, value_parser = ["box", "gaussian", "blackman-harris"])]
+    pixel_filter: Option<String>,
+    /// The pixel filter's Width in pixels, as Blender's [default: 1 for
+    /// the box, 1.5 for the others].
+    #[arg(long, requires = "pixel_filter", value_name = "PIXELS")]
+    filter_width: Option<f32>,
     /// World as an equirectangular environment image (HDR, EXR, PNG, JPEG),
     /// mapped as Blender's Environment Texture; replaces --background.
     #[arg(long)]
@@ -161,6 +171,15 @@ impl RenderOptions {
             features: self.features.as_deref().map(|f| if f == "all" { FeatureMode::All } else { FeatureMode::Auto }),
             transparent: self.transparent_film.then_some(true),
             transparent_glass: self.transparent_glass,
+            pixel_filter: self.pixel_filter.as_deref().map(|f| {
+                let kind = match f {
+                    "gaussian" => FilterKind::Gaussian,
+                    "blackman-harris" => FilterKind::BlackmanHarris,
+                    _ => FilterKind::Box,
+                };
+                let default = if kind == FilterKind::Box { 1.0 } else { 1.5 };
+                FilterRequest { kind, width: self.filter_width.unwrap_or(default) }
+            }),
         }
     }
 }

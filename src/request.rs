@@ -214,6 +214,9 @@ pub struct RenderRequest {
     /// transparent film, the World seen through glass no rougher than
     /// this is transparency too.
     pub transparent_glass: Option<f32>,
+    /// Blender's Film › Pixel Filter: its type and Width in pixels
+    /// (pixel_filter.rs); a one-pixel box without.
+    pub pixel_filter: Option<crate::pixel_filter::FilterRequest>,
 }
 
 /// Blender's camera beyond glTF: Shift X and Y, and Depth of Field.

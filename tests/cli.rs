@@ -354,3 +354,24 @@ fn a_closed_output_pipe_does_not_lose_the_render() {
     assert_eq!((w, h), (40, 30));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `--pixel-filter` and `--filter-width` (Blender's Film › Pixel Filter):
+/// a Gaussian render of the default scene is clean and differs from the
+/// box's; a width below 0.01 pixels is a one-line error, and a width
+/// without a filter is refused by the parser.
+#[test]
+fn the_pixel_filter_options_render_and_bad_widths_are_errors() {
+    let dir = temp_dir("filter");
+    let (boxed, gaussian) = (dir.join("box.exr"), dir.join("gaussian.exr"));
+    let common = ["--spp", "4", "--width", "16", "--height", "16", "--seed", "3"];
+    let o = glint(&[&["render", "-o", boxed.to_str().unwrap()][..], &common].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = glint(&[&["render", "-o", gaussian.to_str().unwrap(), "--pixel-filter", "gaussian", "--filter-width", "2"][..], &common].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (a, b) = (glint::output::read_exr(&boxed).unwrap().2, glint::output::read_exr(&gaussian).unwrap().2);
+    assert!(b.iter().all(|p| p.is_finite()) && a != b);
+    let o = glint(&[&["render", "-o", dir.join("bad.exr").to_str().unwrap(), "--pixel-filter", "box", "--filter-width", "0"][..], &common].concat());
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("pixel filter") && err.trim().lines().count() == 1, "{err}");
+    assert!(!glint(&["render", "--filter-width", "2", "-o", dir.join("x.exr").to_str().unwrap()]).status.success());
+}

@@ -405,7 +405,7 @@ fn lit_box_and_request(environment: Option<&Path>) -> (serde_json::Value, serde_
         "job": "mutated", "width": 12, "height": 12, "samples": 1, "max_depth": 6, "seed": 3, "mis": true, "bsdf": "principled",
         "light_paths": true, "background": [0.1, 0.2, 0.3], "two_sided_emission": true, "default_surface": [0.8, 0.8, 0.8],
         "single_scatter_materials": ["white"], "coat_tints": [{"material": "white", "tint": [0.9, 0.6, 0.3]}],
-        "diffuse_roughness": [{"material": "red", "roughness": 0.7}],
+        "diffuse_roughness": [{"material": "red", "roughness": 0.7}], "pixel_filter": {"type": "gaussian", "width": 2.0},
         "area_lights": [
             {"name": "Square", "shape": "SQUARE", "size": [0.3, 0.3], "matrix": matrix([0.0, 1.7, 0.0], 0.0), "color": [1, 1, 1], "power": 40, "spread": 0.8},
             {"name": "Rectangle", "shape": "RECTANGLE", "size": [0.4, 0.2], "matrix": matrix([0.3, 1.5, -0.2], 0.4), "color": [1, 0.5, 0.2], "power": 20},

@@ -305,7 +305,7 @@ fn light_paths_stay_unless_an_emitter_is_inside_a_medium() {
     let channel_means = |light_paths: LightPaths, seed: u64| {
         let means: Vec<Vec3> = (0..6)
             .map(|k| {
-                let (img, stats) = render(&outside, &RenderSettings { light_paths, seed: seed + k, ..s }, 2);
+                let (img, stats) = render(&outside, &RenderSettings { light_paths, seed: seed + k, ..s.clone() }, 2);
                 common::assert_clean(&img, &stats, "absorbing cube");
                 img.iter().copied().sum::<Vec3>() / img.len() as f32
             })

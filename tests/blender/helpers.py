@@ -54,6 +54,7 @@ def fair_cycles(scene, samples, bounces, seed=0):
     c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
     c.light_sampling_threshold = 0.0
     c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
+    # Cycles' Film settings are Glint's too (the add-on reads them).
     c.pixel_filter_type, c.filter_width = "BOX", 1.0
 
 

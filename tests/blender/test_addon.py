@@ -464,3 +464,21 @@ def test_an_animation_renders_every_frame_with_its_camera(empty_scene, tmp_path)
         lum = img[..., :3].sum(axis=2)
         return (lum.sum(axis=0) * np.arange(img.shape[1])).sum() / lum.sum()
     assert centre(frames[1]) < centre(frames[0]) - 1.0, (centre(frames[0]), centre(frames[1]))
+
+
+def test_the_pixel_filter_goes_in_the_request(empty_scene):
+    """Film › Pixel Filter is Cycles' setting, which the .blend keeps: the
+    request carries it (its render: test_camera_vs_cycles.py), Blender's
+    default Blackman-Harris of 1.5 px included, and a box of one pixel
+    whatever its Width, as Cycles renders one."""
+    build_scene(empty_scene)
+
+    def sent():
+        request, _ = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        return request["pixel_filter"]
+
+    assert sent() == {"type": "blackman_harris", "width": pytest.approx(1.5)}
+    empty_scene.cycles.pixel_filter_type, empty_scene.cycles.filter_width = "GAUSSIAN", 2.0
+    assert sent() == {"type": "gaussian", "width": pytest.approx(2.0)}
+    empty_scene.cycles.pixel_filter_type, empty_scene.cycles.filter_width = "BOX", 3.0
+    assert sent() == {"type": "box", "width": 1.0}
