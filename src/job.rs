@@ -316,7 +316,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     .map_err(|e| e.to_string())?;
     let pixel_filter = match &options.pixel_filter {
         None => PixelFilter::default(),
-        Some(r) => PixelFilter::from_request(r).ok_or_else(|| format!("{name}: the pixel filter's width must be finite and ≥ 0.01 pixels"))?,
+        Some(r) => PixelFilter::from_request(r).ok_or_else(|| format!("{name}: the pixel filter's width must be between 0.01 and 10 pixels"))?,
     };
     if options.transparent_glass.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
         return Err(format!("{name}: transparent glass's roughness threshold must be finite and ≥ 0"));
@@ -459,7 +459,7 @@ mod tests {
     }
 
     /// A request's pixel filter reaches the settings; a width that is not
-    /// finite or below 0.01 pixels is one line naming the file.
+    /// outside 0.01 to 10 pixels is one line naming the file.
     #[test]
     fn the_pixel_filter_reaches_the_settings_and_a_bad_width_is_an_error() {
         use crate::pixel_filter::{FilterKind, FilterRequest};
@@ -468,7 +468,7 @@ mod tests {
         let job = prepare(Some(&path), &options(1.5), SceneExtras::default()).unwrap();
         assert!(!job.settings.pixel_filter.is_unit_box() && job.settings.pixel_filter.radius() == 1.5);
         assert!(prepare(Some(&path), &JobOptions::default(), SceneExtras::default()).unwrap().settings.pixel_filter.is_unit_box());
-        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        for bad in [0.0, -1.0, 10.5, f32::NAN, f32::INFINITY] {
             let err = prepare(Some(&path), &options(bad), SceneExtras::default()).err().unwrap();
             assert!(err.contains("cornell-box.gltf") && err.contains("pixel filter") && !err.contains('\n'), "{err}");
         }

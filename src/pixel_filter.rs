@@ -24,6 +24,13 @@ use std::f32::consts::PI;
 
 /// Entries of the inverse-CDF table (Cycles uses 1,024 too).
 const TABLE: usize = 1024;
+/// Steps of the grid that finds an offset's interval of the table: finer
+/// than its narrowest interval (the centre's, about 1/(TABLE·F(0))).
+const GRID: usize = 4 * TABLE;
+
+/// The most pixels a filter reaches on each side of a point along an
+/// axis: Gaussian's 1.5 × Blender's largest Width, 10, rounded up.
+const MAX_REACH: usize = 16;
 
 /// Cycles' three filters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
@@ -35,7 +42,7 @@ pub enum FilterKind {
 }
 
 /// A filter as a render request names it: its kind and Cycles' Width in
-/// pixels (finite, ≥ 0.01 — Blender's own bounds are 0.01 and 10).
+/// pixels (Blender's bounds: 0.01 to 10).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterRequest {
@@ -54,6 +61,11 @@ pub struct PixelFilter {
     /// The inverse CDF on a uniform grid of [0, 1]: offsets in pixels.
     /// Empty for the box, which needs none.
     inverse_cdf: Vec<f32>,
+    /// The density between each two entries of the table, and for each of
+    /// `GRID` equal steps of [−radius, radius] the interval its start lies
+    /// in: `density_1d` finds x's interval in a step or two.
+    interval_density: Vec<f32>,
+    interval_at: Vec<u16>,
     /// The box's density, 1/w (the others' is their table's).
     norm: f32,
 }
@@ -66,9 +78,9 @@ impl Default for PixelFilter {
 }
 
 impl PixelFilter {
-    /// None for a width that is not finite or below 0.01.
+    /// None for a width outside Blender's bounds, 0.01 to 10 pixels.
     pub fn new(kind: FilterKind, width: f32) -> Option<Self> {
-        if !(width.is_finite() && width >= 0.01) {
+        if !((0.01..=10.0).contains(&width)) {
             return None;
         }
         let radius = match kind {
@@ -76,7 +88,7 @@ impl PixelFilter {
             FilterKind::Gaussian => 1.5 * width,
             FilterKind::BlackmanHarris => width,
         };
-        let mut filter = PixelFilter { kind, width, radius, inverse_cdf: Vec::new(), norm: 1.0 / width };
+        let mut filter = PixelFilter { kind, width, radius, inverse_cdf: Vec::new(), interval_density: Vec::new(), interval_at: Vec::new(), norm: 1.0 / width };
         if kind != FilterKind::Box {
             filter.tabulate();
         }
@@ -141,28 +153,53 @@ impl PixelFilter {
                 (-self.radius as f64 + (k as f64 + t) * step) as f32
             })
             .collect();
+        let t = &self.inverse_cdf;
+        self.interval_density = t.windows(2).map(|w| if w[1] > w[0] { 1.0 / ((TABLE - 1) as f32 * (w[1] - w[0])) } else { 0.0 }).collect();
+        self.interval_at = (0..GRID)
+            .map(|g| {
+                let x = -self.radius + 2.0 * self.radius * g as f32 / GRID as f32;
+                (t.partition_point(|&v| v <= x).clamp(1, TABLE - 1) - 1) as u16
+            })
+            .collect();
     }
 
     /// An offset from the centre along one axis, u uniform in [0, 1).
-    #[inline]
+    #[cfg(test)]
     fn offset(&self, u: f32) -> f32 {
+        self.offset_and_density(u).0
+    }
+
+    /// `offset`, and `density_1d` there, read off the interval u drew it
+    /// from rather than searched for.
+    #[inline]
+    fn offset_and_density(&self, u: f32) -> (f32, f32) {
         if self.kind == FilterKind::Box {
-            return (u - 0.5) * self.width;
+            return ((u - 0.5) * self.width, self.norm);
         }
         let x = u.clamp(0.0, 1.0) * (TABLE - 1) as f32;
         let i = (x as usize).min(TABLE - 2);
         let t = x - i as f32;
-        self.inverse_cdf[i] * (1.0 - t) + self.inverse_cdf[i + 1] * t
+        (self.inverse_cdf[i] * (1.0 - t) + self.inverse_cdf[i + 1] * t, self.interval_density[i])
     }
 
     /// Where in the image a sample of pixel (x, y) looks, from two uniform
     /// numbers: (x, y) + u for the one-pixel box, bit for bit as before.
     #[inline]
     pub fn sample(&self, pixel: Vec2, u: Vec2) -> Vec2 {
+        self.sample_with_density(pixel, u).0
+    }
+
+    /// `sample`, and `density_for` the point it gives (the density of the
+    /// interval each axis drew from: the same as `density_1d` finds but
+    /// where the point falls on an interval's end, which rounding alone
+    /// can make it do).
+    #[inline]
+    pub fn sample_with_density(&self, pixel: Vec2, u: Vec2) -> (Vec2, f32) {
         if self.is_unit_box() {
-            return pixel + u;
+            return (pixel + u, 1.0);
         }
-        pixel + Vec2::splat(0.5) + Vec2::new(self.offset(u.x), self.offset(u.y))
+        let ((x, fx), (y, fy)) = (self.offset_and_density(u.x), self.offset_and_density(u.y));
+        (pixel + Vec2::splat(0.5) + Vec2::new(x, y), fx * fy)
     }
 
     /// The density, per pixel, with which `offset` draws x: the table's
@@ -180,9 +217,12 @@ impl PixelFilter {
             return self.norm;
         }
         let t = &self.inverse_cdf;
-        let i = t.partition_point(|&v| v <= x).clamp(1, TABLE - 1) - 1;
-        let width = t[i + 1] - t[i];
-        if width > 0.0 { 1.0 / ((TABLE - 1) as f32 * width) } else { 0.0 }
+        let g = (((x + self.radius) / (2.0 * self.radius) * GRID as f32) as usize).min(GRID - 1);
+        let mut i = self.interval_at[g] as usize;
+        while i + 2 < TABLE && t[i + 1] <= x {
+            i += 1;
+        }
+        self.interval_density[i]
     }
 
     /// F at an offset from a pixel's centre: the density, per pixel², of
@@ -206,13 +246,22 @@ impl PixelFilter {
     /// point `at`, each with F there: what light tracing adds its light to.
     pub fn reach(&self, at: Vec2, width: u32, height: u32, mut add: impl FnMut(u32, f32)) {
         let r = self.radius;
-        let (x0, x1) = (((at.x - 0.5 - r).ceil().max(0.0)) as i64, ((at.x - 0.5 + r).floor()) as i64);
-        let (y0, y1) = (((at.y - 0.5 - r).ceil().max(0.0)) as i64, ((at.y - 0.5 + r).floor()) as i64);
-        for y in y0..=y1.min(height as i64 - 1) {
-            for x in x0..=x1.min(width as i64 - 1) {
-                let f = self.density(at - Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-                if f > 0.0 {
-                    add(y as u32 * width + x as u32, f);
+        let (x0, x1) = (((at.x - 0.5 - r).ceil().max(0.0)) as i64, ((at.x - 0.5 + r).floor()).min(width as f32 - 1.0) as i64);
+        let (y0, y1) = (((at.y - 0.5 - r).ceil().max(0.0)) as i64, ((at.y - 0.5 + r).floor()).min(height as f32 - 1.0) as i64);
+        // The filter is separable: each column's and row's factor once.
+        let mut columns = [0.0f32; 2 * MAX_REACH];
+        let n = (x1 - x0 + 1).clamp(0, 2 * MAX_REACH as i64) as usize;
+        for (k, f) in columns[..n].iter_mut().enumerate() {
+            *f = self.density_1d(at.x - (x0 + k as i64) as f32 - 0.5);
+        }
+        for y in y0..=y1 {
+            let fy = self.density_1d(at.y - y as f32 - 0.5);
+            if fy <= 0.0 {
+                continue;
+            }
+            for (k, fx) in columns[..n].iter().enumerate() {
+                if *fx > 0.0 {
+                    add(y as u32 * width + (x0 + k as i64) as u32, fx * fy);
                 }
             }
         }
@@ -310,7 +359,26 @@ mod tests {
             assert_eq!(unit.sample(Vec2::new(7.0, 3.0), u), Vec2::new(7.0, 3.0) + u);
         }
         assert_eq!(unit.density_for(Vec2::new(7.0, 3.0), Vec2::new(7.4, 3.9)), 1.0);
-        assert!(PixelFilter::new(FilterKind::Gaussian, 0.0).is_none() && PixelFilter::new(FilterKind::Box, f32::NAN).is_none());
+        // The density a sample is drawn with is the one light tracing
+        // weighs that point by, but where rounding the point moves it
+        // across an interval's end (a neighbour's density, a few per
+        // 10,000).
+        let mut rng = crate::rng::Rng::new(5, 1);
+        for f in filters() {
+            let differ = (0..10_000)
+                .filter(|_| {
+                    let (at, density) = f.sample_with_density(Vec2::new(4.0, 2.0), rng.next_2d());
+                    density != f.density_for(Vec2::new(4.0, 2.0), at)
+                })
+                .count();
+            assert!(differ <= 20, "{f:?}: {differ} of 10,000");
+        }
+        assert!(PixelFilter::new(FilterKind::Gaussian, 0.0).is_none() && PixelFilter::new(FilterKind::Box, f32::NAN).is_none() && PixelFilter::new(FilterKind::Box, 10.5).is_none());
+        // The widest reaches every pixel it covers.
+        let widest = PixelFilter::new(FilterKind::Gaussian, 10.0).unwrap();
+        let mut n = 0;
+        widest.reach(Vec2::new(40.0, 40.0), 80, 80, |_, _| n += 1);
+        assert_eq!(n, 30 * 30);
     }
 
     /// A film point reaches the pixels whose filters cover it, with F's

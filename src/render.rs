@@ -280,9 +280,9 @@ pub fn render_pass(
 fn camera_ray(lens: &Lens, filter: &PixelFilter, unit_box: bool, x: u32, y: u32, rng: &mut Rng) -> (Option<CameraRay>, f32) {
     let pixel = Vec2::new(x as f32, y as f32);
     let u = rng.next_2d();
-    let at = if unit_box { pixel + u } else { filter.sample(pixel, u) };
+    let (at, density) = if unit_box { (pixel + u, 1.0) } else { filter.sample_with_density(pixel, u) };
     let aperture = if lens.has_aperture() { rng.next_2d() } else { Vec2::ZERO };
-    (lens.ray(at, aperture), if unit_box { 1.0 } else { filter.density_for(pixel, at) })
+    (lens.ray(at, aperture), density)
 }
 
 fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bool>(
