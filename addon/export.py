@@ -24,12 +24,14 @@ rotation), which the request carries.
 Through the request: resolution × percentage, the Tangent node that feeds
 an anisotropic Principled BSDF's Tangent (Radial about X, Y or Z, or a UV
 map; unlinked, Cycles' default, radial about Z; anything else is warned
-of and rendered as the default), the objects hidden from the
-camera (Object › Visibility › Ray Visibility › Camera; other rays'
-visibility is warned of, not rendered), the scene camera and what
+of and rendered as the default), the objects hidden from the camera
+and from shadow, diffuse, glossy or transmission rays (Object ›
+Visibility › Ray Visibility; on an emitting object or a light, all but
+Shadow and Camera are warned of and rendered as seen), the scene camera and what
 glTF cannot say of it (Shift X and Y, Depth of Field, a panoramic camera's
 type and settings), Film › Transparent (and
-Cycles' Transparent Glass with its Roughness Threshold), Coat Tint, Diffuse
+Cycles' Transparent Glass with its Roughness Threshold) and Pixel Filter,
+a World image packed into the .blend (written into the job folder), Coat Tint, Diffuse
 Roughness, samples, bounces,
 time limit, Noise Threshold and Min Samples (adaptive sampling), a Volume
 Absorption inside glass, a Diffuse, Glossy or Glass BSDF node in place of
