@@ -391,13 +391,13 @@ impl Lens<'_> {
         })
     }
 
-    /// The row-major index of the pixel at image point (`x`, `y`), as
-    /// `ray` takes them; None outside the image.
     /// Whether image point (x, y) lies within `reach` pixels of the image.
     fn within_reach(&self, x: f32, y: f32, reach: f32) -> bool {
         x >= -reach && x < self.width + reach && y >= -reach && y < self.height + reach
     }
 
+    /// The row-major index of the pixel at image point (`x`, `y`), as
+    /// `ray` takes them; None outside the image.
     fn pixel_index(&self, x: f32, y: f32) -> Option<u32> {
         if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
             return None;

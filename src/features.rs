@@ -302,11 +302,11 @@ impl Kernel {
         let coat = principled && features.coat > 0;
         // Both models are exactly Lambert for a non-metal with specular 0
         // (and no coat); the Principled one's base may be rough.
-        let bsdf = if features.ggx || coat || (principled && features.rough_diffuse > 0) { general } else { KernelBsdf::Lambert };
+        let rough_diffuse = principled && features.rough_diffuse > 0;
+        let bsdf = if features.ggx || coat || rough_diffuse { general } else { KernelBsdf::Lambert };
         // The light list decides, not the materials: an emissive triangle
         // of zero power is not sampled and adds nothing.
         let area = !lights.triangles.is_empty();
-        let rough_diffuse = principled && features.rough_diffuse > 0;
         Kernel { bsdf, area, punctual: features.punctual > 0 && !lights.is_empty(), lamps: area && features.lamp_triangles > 0, glass: features.transmission > 0, coat, rough_diffuse }
     }
 }

@@ -59,101 +59,65 @@ pub struct LightTracing<'a> {
 
 impl LightTracing<'_> {
     /// Vertex `v` seen by the camera, MIS-weighted, added to `out` for
-    /// each pixel it reaches, if it is in view and unblocked.
+    /// each pixel it reaches, if it is in view and unblocked: with the
+    /// one-pixel box, the pixel it appears in; with a wider filter, each
+    /// pixel p within reach, the light weighted by F_p there and the
+    /// camera's density for p's samples, p_camera·F_p, in its MIS weight
+    /// (as the camera path through p weighs it). One shadow ray for all.
     pub fn splat<B: Bsdf>(&self, ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], v: &LightVertex, rng: &mut Rng, rays: &mut u64, out: &mut Vec<Splat>) {
-        if self.filter.is_unit_box() {
-            if let Some(splat) = self.splat_in_pixel::<B>(ctx, prepared, v, rng, rays) {
-                out.push(splat);
-            }
-        } else {
-            self.splat_filtered::<B>(ctx, prepared, v, rng, rays, out);
-        }
-    }
-
-    /// `splat` for the one-pixel box: the pixel the vertex appears in.
-    fn splat_in_pixel<B: Bsdf>(&self, ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], v: &LightVertex, rng: &mut Rng, rays: &mut u64) -> Option<Splat> {
         let y = &v.hit;
         // The camera does not see a surface hidden from it.
         if v.depth < 2 || !connects_from(&y.surface) || (ctx.features.hidden_from_camera > 0 && ctx.scene.materials[y.material as usize].hidden_from_camera) {
-            return None;
+            return;
         }
         // A point of the aperture to see y from, where the camera has one.
         let aperture = if self.lens.has_aperture() { rng.next_2d() } else { glam::Vec2::ZERO };
-        let seen = self.lens.project(y.p, aperture, 0.0)?;
-        let pixel = seen.pixel?;
+        let unit_box = self.filter.is_unit_box();
+        let Some(seen) = self.lens.project(y.p, aperture, if unit_box { 0.0 } else { self.filter.radius() }) else {
+            return;
+        };
+        if unit_box && seen.pixel.is_none() {
+            return;
+        }
         let w = seen.to_camera;
         let cos_y = w.dot(y.ng);
         // The camera on the side y's light came from, off y's plane by
         // more than its rounding.
         if !(cos_y > 0.0 && seen.distance * cos_y > y.ng.abs().dot(y.p_error)) {
-            return None;
+            return;
         }
         let frame = Frame::from_normal(shading_normal_for(v.ns, y.ng, w));
         let (wo_y, wi_y) = (frame.to_local(w), frame.to_local(v.to_prev));
         if !(wi_y.z > 0.0 && wo_y.z > 0.0) {
-            return None;
+            return;
         }
         let (f_y, pdf_y) = bsdf_at::<B>(prepared, y, &frame, wo_y).evaluate(wo_y, wi_y);
         if f_y == Vec3::ZERO {
-            return None;
+            return;
         }
         // The camera's density per unit area at y, per pixel sample.
         let p_camera = seen.density.at(cos_y, seen.distance * seen.distance);
-        let value = f_y * v.alpha * (p_camera * wi_y.z / (v.to_prev.dot(y.ng) * self.subpaths));
-        let weight = 1.0 / (1.0 + self.others_over_this(v, p_camera, pdf_y));
-        let value = value * weight;
-        if !(crate::render::sample_fits(value) && weight > 0.0) {
-            return None;
-        }
-        *rays += 1;
-        let origin = y.spawn_origin(w);
-        let to_camera = seen.lens_point - origin;
-        let length = to_camera.length();
-        // Up to Clip Start: camera rays see nothing nearer.
-        let clear = length - seen.skipped;
-        if !(clear > 0.0) || ctx.occluded_toward_camera(origin, to_camera / length, clear, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
-            return None;
-        }
-        Some(Splat { pixel, value })
-    }
-
-    /// `splat` for a wider filter: to each pixel p within reach, the light
-    /// weighted by F_p there, the camera's density for p's samples
-    /// p_camera·F_p in its MIS weight (as the camera path through p weighs
-    /// it); one shadow ray for all.
-    fn splat_filtered<B: Bsdf>(&self, ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], v: &LightVertex, rng: &mut Rng, rays: &mut u64, out: &mut Vec<Splat>) {
-        let y = &v.hit;
-        if v.depth < 2 || !connects_from(&y.surface) || (ctx.features.hidden_from_camera > 0 && ctx.scene.materials[y.material as usize].hidden_from_camera) {
-            return;
-        }
-        let aperture = if self.lens.has_aperture() { rng.next_2d() } else { glam::Vec2::ZERO };
-        let Some(seen) = self.lens.project(y.p, aperture, self.filter.radius()) else {
-            return;
-        };
-        let w = seen.to_camera;
-        let cos_y = w.dot(y.ng);
-        if !(cos_y > 0.0 && seen.distance * cos_y > y.ng.abs().dot(y.p_error)) {
-            return;
-        }
-        let frame = Frame::from_normal(shading_normal_for(v.ns, y.ng, w));
-        let (wo_y, wi_y) = (frame.to_local(w), frame.to_local(v.to_prev));
-        if !(wi_y.z > 0.0 && wo_y.z > 0.0) {
-            return;
-        }
-        let (f_y, pdf_y) = bsdf_at::<B>(prepared, y, &frame, wo_y).evaluate(wo_y, wi_y);
-        if f_y == Vec3::ZERO {
-            return;
-        }
-        let p_camera = seen.density.at(cos_y, seen.distance * seen.distance);
-        let light = f_y * v.alpha * (wi_y.z / (v.to_prev.dot(y.ng) * self.subpaths));
         let start = out.len();
-        self.filter.reach(seen.image, self.width, self.height, |pixel, f| {
-            let p_pixel = p_camera * f;
-            let value = light * p_pixel / (1.0 + self.others_over_this(v, p_pixel, pdf_y));
-            if crate::render::sample_fits(value) && value != Vec3::ZERO {
-                out.push(Splat { pixel, value });
+        match seen.pixel.filter(|_| unit_box) {
+            Some(pixel) => {
+                let value = f_y * v.alpha * (p_camera * wi_y.z / (v.to_prev.dot(y.ng) * self.subpaths));
+                let weight = 1.0 / (1.0 + self.others_over_this(v, p_camera, pdf_y));
+                let value = value * weight;
+                if crate::render::sample_fits(value) && weight > 0.0 {
+                    out.push(Splat { pixel, value });
+                }
             }
-        });
+            None => {
+                let light = f_y * v.alpha * (wi_y.z / (v.to_prev.dot(y.ng) * self.subpaths));
+                self.filter.reach(seen.image, self.width, self.height, |pixel, f| {
+                    let p_pixel = p_camera * f;
+                    let value = light * p_pixel / (1.0 + self.others_over_this(v, p_pixel, pdf_y));
+                    if crate::render::sample_fits(value) && value != Vec3::ZERO {
+                        out.push(Splat { pixel, value });
+                    }
+                });
+            }
+        }
         if out.len() == start {
             return;
         }
@@ -161,6 +125,7 @@ impl LightTracing<'_> {
         let origin = y.spawn_origin(w);
         let to_camera = seen.lens_point - origin;
         let length = to_camera.length();
+        // Up to Clip Start: camera rays see nothing nearer.
         let clear = length - seen.skipped;
         if !(clear > 0.0) || ctx.occluded_toward_camera(origin, to_camera / length, clear, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
             out.truncate(start);

@@ -184,8 +184,8 @@ impl PixelFilter {
 
     /// Where in the image a sample of pixel (x, y) looks, from two uniform
     /// numbers: (x, y) + u for the one-pixel box, bit for bit as before.
-    #[inline]
-    pub fn sample(&self, pixel: Vec2, u: Vec2) -> Vec2 {
+    #[cfg(test)]
+    fn sample(&self, pixel: Vec2, u: Vec2) -> Vec2 {
         self.sample_with_density(pixel, u).0
     }
 
@@ -227,15 +227,15 @@ impl PixelFilter {
 
     /// F at an offset from a pixel's centre: the density, per pixel², of
     /// its samples there (1 inside the pixel for the one-pixel box).
-    #[inline]
-    pub fn density(&self, offset: Vec2) -> f32 {
+    #[cfg(test)]
+    fn density(&self, offset: Vec2) -> f32 {
         self.density_1d(offset.x) * self.density_1d(offset.y)
     }
 
     /// The density of a sample drawn at image point `at` by pixel (x, y),
-    /// as `sample` draws it.
-    #[inline]
-    pub fn density_for(&self, pixel: Vec2, at: Vec2) -> f32 {
+    /// as `sample` draws it (what light tracing's `reach` weighs it by).
+    #[cfg(test)]
+    fn density_for(&self, pixel: Vec2, at: Vec2) -> f32 {
         if self.is_unit_box() {
             return 1.0;
         }
