@@ -19,7 +19,9 @@ by Glint: procedural textures, a Coat IOR other than 1.5, and the
 Principled inputs Subsurface, Sheen and Thin Film, and a linked Diffuse
 Roughness (the user is warned of each), and World node setups other than a plain Background colour or an
 equirectangular Environment Texture (with at most a Mapping node's Z
-rotation), which the request carries.
+rotation), or two of those mixed by Light Path › Is Camera Ray, which the
+request carries (the camera's as `camera_world`, as is Ray Visibility ›
+Camera off; the World's other Ray Visibility settings are warned of).
 
 Through the request: resolution × percentage, the Tangent node that feeds
 an anisotropic Principled BSDF's Tangent (Radial about X, Y or Z, or a UV
@@ -116,44 +118,105 @@ def export_glb(path):
     os.replace(tmp, path)
 
 
-def world_background(scene, folder=None):
-    """(radiance RGB, environment or None, problem or None) of the World: a
-    plain Background node's colour × strength, or an Environment Texture
-    (through an optional Mapping node) × strength, or the World colour
-    without nodes. An image packed in the .blend is written into `folder`
-    (the job's), as the file that was packed (`packed_copy`)."""
+def world_shaders(scene, folder=None):
+    """(lighting, camera, problems) of the World, each World a (radiance
+    RGB, environment or None) pair: a plain Background node's colour ×
+    strength, or an Environment Texture (through an optional Mapping node)
+    × strength, or the World colour without nodes. `camera` is what camera
+    rays see where it is not `lighting`, else None: the second shader or
+    colour of a Mix whose Fac is Light Path › Is Camera Ray (as Cycles
+    keeps a ray the camera's through transparency, so does Glint), or
+    black with Ray Visibility › Camera off. `problems`: warnings, one a
+    setting. An image packed in the .blend is written into `folder` (the
+    job's), as the file that was packed (`packed_copy`)."""
     world = scene.world
     if world is None:
-        return [0.0, 0.0, 0.0], None, None
+        return BLACK, None, []
+    visibility = getattr(world, "cycles_visibility", None)
+    problems = []
+    hidden = [name for name in ("diffuse", "glossy", "transmission") if visibility is not None and not getattr(visibility, name, True)]
+    if hidden:
+        problems.append(f"the World hidden from {', '.join(hidden)} rays is not rendered by Glint (it lights them as with Blender's defaults)")
     if not world.use_nodes or world.node_tree is None:
-        return list(world.color[:3]), None, None
-    output = world_output(world)
-    links = output.inputs["Surface"].links if output is not None else []
-    if not links:
-        return [0.0, 0.0, 0.0], None, None
-    node = links[0].from_node
+        lighting, camera = (list(world.color[:3]), None), None
+    else:
+        output = world_output(world)
+        links = output.inputs["Surface"].links if output is not None else []
+        lighting, camera, problem = world_shader(links[0].from_node if links else None, folder)
+        if problem:
+            problems.append(problem)
+    if visibility is not None and not visibility.camera:
+        camera = BLACK
+    return lighting, camera, problems
+
+
+BLACK = ([0.0, 0.0, 0.0], None)
+
+
+def world_shader(node, folder):
+    """(lighting, camera or None, problem or None) of the World shader
+    `node` (None: unlinked, black): a Background node, or a Mix Shader of
+    two whose Fac is Is Camera Ray."""
+    if node is None:
+        return BLACK, None, None
+    if node.type == "MIX_SHADER" and is_camera_ray(node.inputs[0]):
+        halves = [world_shader(s.links[0].from_node if s.is_linked else None, folder) for s in (node.inputs[1], node.inputs[2])]
+        (lighting, _, problem), (seen, camera, other) = halves
+        return lighting, camera or seen, problem or other
     if node.type != "BACKGROUND" or node.inputs["Strength"].is_linked:
-        return [0.0, 0.0, 0.0], None, f"the World's node setup ({node.name}) is not a Background colour or environment image; Glint renders it black"
+        return BLACK, None, f"the World's node setup ({node.name}) is not a Background colour or environment image, or a Mix Shader of two by Light Path › Is Camera Ray; Glint renders it black"
     strength = node.inputs["Strength"].default_value
     colour = node.inputs["Color"]
-    if not colour.is_linked:
-        return [c * strength for c in colour.default_value[:3]], None, None
-    env = colour.links[0].from_node
+    mix = colour.links[0].from_node if colour.is_linked else None
+    if mix is not None and colour_mix_by_camera_ray(mix):
+        a, b = ((mix.inputs["Color1"], mix.inputs["Color2"]) if mix.type == "MIX_RGB" else (by_identifier(mix.inputs, "A_Color"), by_identifier(mix.inputs, "B_Color")))
+        (lighting, problem), (camera, other) = colour_source(a, strength, folder), colour_source(b, strength, folder)
+        return lighting, camera, problem or other
+    lighting, problem = colour_source(colour, strength, folder)
+    return lighting, None, problem
+
+
+def is_camera_ray(socket):
+    """Whether `socket` is linked from a Light Path node's Is Camera Ray."""
+    return socket.is_linked and socket.links[0].from_node.type == "LIGHT_PATH" and socket.links[0].from_socket.identifier == "Is Camera Ray"
+
+
+def colour_mix_by_camera_ray(node):
+    """Whether `node` is a Mix (Color, Mix blending, or the older MixRGB)
+    whose factor is Is Camera Ray."""
+    if node.type == "MIX_RGB":
+        return node.blend_type == "MIX" and is_camera_ray(node.inputs["Fac"])
+    return node.type == "MIX" and node.data_type == "RGBA" and node.blend_type == "MIX" and node.factor_mode == "UNIFORM" and is_camera_ray(by_identifier(node.inputs, "Factor_Float"))
+
+
+def by_identifier(sockets, identifier):
+    """The socket of `sockets` with `identifier`: a Mix node's inputs of
+    each data type share their names."""
+    return next(s for s in sockets if s.identifier == identifier)
+
+
+def colour_source(socket, strength, folder):
+    """((radiance RGB, environment or None), problem or None) of a World
+    colour × `strength`: the socket's own colour, or an equirectangular
+    Environment Texture (through an optional Mapping node's Z rotation)."""
+    if not socket.is_linked:
+        return ([c * strength for c in socket.default_value[:3]], None), None
+    env = socket.links[0].from_node
     if env.type != "TEX_ENVIRONMENT" or env.image is None or env.projection != "EQUIRECTANGULAR":
-        return [0.0, 0.0, 0.0], None, f"the World's colour comes from {env.name}, not an equirectangular Environment Texture; Glint renders it black"
+        return BLACK, f"the World's colour comes from {env.name}, not an equirectangular Environment Texture; Glint renders it black"
     path = bpy.path.abspath(env.image.filepath, library=env.image.library)
     if env.image.packed_file is not None and folder is not None:
         path = packed_copy(env.image, folder)
     elif env.image.packed_file is not None or not os.path.isfile(path):
-        return [0.0, 0.0, 0.0], None, f"the World's image {env.image.name} is not a file on disk (generated, or missing); save it to render it with Glint"
+        return BLACK, f"the World's image {env.image.name} is not a file on disk (generated, or missing); save it to render it with Glint"
     rotation = 0.0
     vector = env.inputs["Vector"]
     if vector.is_linked:
         mapping = vector.links[0].from_node
         if mapping.type != "MAPPING" or any(mapping.inputs[k].is_linked for k in ("Rotation", "Location", "Scale")):
-            return [0.0, 0.0, 0.0], None, f"the World's texture coordinates come from {mapping.name}; Glint takes an Environment Texture with at most a Mapping node's Z rotation"
+            return BLACK, f"the World's texture coordinates come from {mapping.name}; Glint takes an Environment Texture with at most a Mapping node's Z rotation"
         rotation = mapping.inputs["Rotation"].default_value[2]
-    return [0.0, 0.0, 0.0], {"image": os.path.abspath(path), "strength": strength, "rotation": rotation}, None
+    return ([0.0, 0.0, 0.0], {"image": os.path.abspath(path), "strength": strength, "rotation": rotation}), None
 
 
 # Extensions of the image files Glint reads, by Blender's file format.
@@ -323,9 +386,8 @@ def render_request(depsgraph, job, width, height, folder=None):
     scene = depsgraph.scene
     settings = scene.glint
     warnings = []
-    background, environment, problem = world_background(scene, folder)
-    if problem:
-        warnings.append(problem)
+    (background, environment), camera_world, problems = world_shaders(scene, folder)
+    warnings.extend(problems)
     if world_volume(scene):
         warnings.append("the World's Volume (fog, haze) is not rendered by Glint: its rays cross empty space")
     procedural = [m.name for m in used_materials(depsgraph) if uses_node(m, PROCEDURAL_TEXTURES)]
@@ -377,6 +439,9 @@ def render_request(depsgraph, job, width, height, folder=None):
     }
     if environment:
         request["environment"] = environment
+    if camera_world is not None:
+        seen_colour, seen_image = camera_world
+        request["camera_world"] = {"environment": seen_image} if seen_image else {"background": seen_colour}
     single_scatter = sorted(
         {m.name for m in used_materials(depsgraph) if any(n.type == "BSDF_PRINCIPLED" and n.distribution == "GGX" for n in m.node_tree.nodes)} | set(node_single_scatter)
     )

@@ -78,6 +78,8 @@ pub struct Features {
     /// The World is not black: a colour, or an environment image.
     pub background: bool,
     pub environment: bool,
+    /// Camera rays see a World of their own (`Scene::camera_world`).
+    pub camera_world: bool,
     /// Some emitter emits from its front face only.
     pub one_sided_emission: bool,
     /// Materials with textures, and the images they share.
@@ -143,6 +145,7 @@ impl Features {
             portals: scene.portals.len(),
             background: scene.has_world(),
             environment: scene.environment.is_some(),
+            camera_world: scene.camera_world.is_some(),
             images: scene.images.len(),
             vertex_colors: !scene.attributes.color.is_empty(),
             ..Features::default()
@@ -208,6 +211,9 @@ impl fmt::Display for Features {
             on.push("environment map".into());
         } else if self.background {
             on.push("background".into());
+        }
+        if self.camera_world {
+            on.push("camera World".into());
         }
         if self.portals > 0 {
             on.push(format!("portals={}", self.portals));

@@ -1225,7 +1225,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             // Film › Transparent: the camera does not see the World (it
             // still lights what the camera sees).
             if seen_kept && !see_through {
-                l += absorbed(beta, f32::INFINITY) * world_seen(ctx, d, &from, settings.mis);
+                // Through nothing but transparency this is still the
+                // camera's ray (Cycles' Is Camera Ray), which may see a
+                // World of its own; no strategy but this one reaches it.
+                let le = if depth == 0 { ctx.scene.world_seen_by_camera(d) } else { world_seen(ctx, d, &from, settings.mis) };
+                l += absorbed(beta, f32::INFINITY) * le;
             }
             let coverage = match (depth, see_through) {
                 (0, _) => 0.0,

@@ -14,7 +14,7 @@ use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
 use crate::material::AlphaMode;
 use crate::request::{is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, DiffuseRoughness, LensRequest, LightSize, RenderRequest, ShaderMix, VolumeAbsorption};
-use crate::scene::Scene;
+use crate::scene::{Backdrop, Scene};
 use crate::Vec3;
 use std::path::Path;
 use std::time::Duration;
@@ -44,6 +44,8 @@ pub struct JobOptions {
     pub features: Option<FeatureMode>,
     /// An environment image for the World (replaces `background`).
     pub environment: Option<crate::request::EnvironmentRequest>,
+    /// The World camera rays see instead (`Scene::camera_world`).
+    pub camera_world: Option<crate::request::CameraWorld>,
     pub sampler: Option<crate::rng::Sampler>,
     /// `--light-paths`, else the request's, else `Auto`.
     pub light_paths: Option<LightPaths>,
@@ -77,6 +79,7 @@ impl JobOptions {
             two_sided_emission: self.two_sided_emission.or(f.two_sided_emission),
             features: self.features.or(f.features),
             environment: self.environment.or(f.environment),
+            camera_world: self.camera_world.or(f.camera_world),
             sampler: self.sampler.or(f.sampler),
             light_paths: self.light_paths.or(f.light_paths),
             transparent: self.transparent.or(f.transparent),
@@ -107,6 +110,7 @@ impl From<&RenderRequest> for JobOptions {
             sampler: None,
             light_paths: r.light_paths.map(|on| if on { LightPaths::On } else { LightPaths::Off }),
             environment: r.environment.clone(),
+            camera_world: r.camera_world.clone(),
             transparent: r.transparent_film,
             transparent_glass: r.transparent_glass,
             pixel_filter: r.pixel_filter,
@@ -177,7 +181,28 @@ fn check_radiance(scene: &Scene) -> Result<(), String> {
     if let Some(env) = scene.environment.as_ref().filter(|e| too_bright(e.brightest)) {
         return Err(format!("the environment image's brightest texel × strength is {:e} W·sr⁻¹·m⁻²; Glint renders up to {MAX_RADIANCE:e}", env.brightest));
     }
+    let camera_brightest = match &scene.camera_world {
+        Some(Backdrop::Colour(c)) => c.max_element(),
+        Some(Backdrop::Image(map)) => map.brightest,
+        None => 0.0,
+    };
+    if too_bright(camera_brightest) {
+        return Err(format!("the World the camera sees is {camera_brightest:e} W·sr⁻¹·m⁻² at its brightest; Glint renders up to {MAX_RADIANCE:e}"));
+    }
     Ok(())
+}
+
+/// The World camera rays see, from the request: its image, else its
+/// colour, else black.
+fn camera_backdrop(seen: &crate::request::CameraWorld) -> Result<Backdrop, String> {
+    if let Some(env) = &seen.environment {
+        return EnvironmentMap::load(&env.image, env.strength, env.rotation).map(|map| Backdrop::Image(Box::new(map)));
+    }
+    let colour = seen.background.unwrap_or([0.0; 3]);
+    if !colour.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        return Err("background must be finite and ≥ 0".into());
+    }
+    Ok(Backdrop::Colour(Vec3::from(colour)))
 }
 
 /// The Principled BSDF that renders a plain BSDF node as Cycles does:
@@ -379,6 +404,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
     if let Some(env) = &options.environment {
         let map = EnvironmentMap::load(&env.image, env.strength, env.rotation).map_err(|e| format!("{name}: {e}"))?;
         scene.environment = Some(map);
+    }
+    if let Some(seen) = &options.camera_world {
+        scene.camera_world = Some(camera_backdrop(seen).map_err(|e| format!("{name}: camera World: {e}"))?);
     }
     check_radiance(&scene).map_err(|e| format!("{name}: {e}"))?;
     // A previewed asset without lights is lit by a white World.

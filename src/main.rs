@@ -166,6 +166,7 @@ impl RenderOptions {
                 strength: self.environment_strength.unwrap_or(1.0),
                 rotation: self.environment_rotation.unwrap_or(0.0).to_radians(),
             }),
+            camera_world: None,
             bsdf: self.bsdf.as_deref().map(|b| if b == "seed" { BsdfModel::Seed } else { BsdfModel::Principled }),
             two_sided_emission: None,
             features: self.features.as_deref().map(|f| if f == "all" { FeatureMode::All } else { FeatureMode::Auto }),

@@ -194,6 +194,10 @@ pub struct RenderRequest {
     pub default_surface: Option<[f32; 3]>,
     /// The World as an environment image (replaces `background`).
     pub environment: Option<EnvironmentRequest>,
+    /// What camera rays see where they leave the scene, where that is not
+    /// the World that lights it (Blender's Light Path › Is Camera Ray
+    /// mixing two World shaders).
+    pub camera_world: Option<CameraWorld>,
     /// Sizes of the glTF file's point, spot and sun lights, by name.
     pub light_sizes: Vec<LightSize>,
     /// Nodes (Blender objects) hidden from the camera: camera rays pass
@@ -326,6 +330,15 @@ pub struct EnvironmentRequest {
 
 fn one() -> f32 {
     1.0
+}
+
+/// The World camera rays see (`RenderRequest::camera_world`): an
+/// environment image, else a colour (W·sr⁻¹·m⁻², black without).
+#[derive(Clone, Debug, Default, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraWorld {
+    pub background: Option<[f32; 3]>,
+    pub environment: Option<EnvironmentRequest>,
 }
 
 impl RenderRequest {

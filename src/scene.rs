@@ -76,6 +76,14 @@ pub struct VertexAttributes {
     pub anisotropy_tangent: Vec<[Vec3; 3]>,
 }
 
+/// A World only the camera sees: a colour (W·sr⁻¹·m⁻²) or an environment
+/// image.
+#[derive(Clone, Debug)]
+pub enum Backdrop {
+    Colour(Vec3),
+    Image(Box<EnvironmentMap>),
+}
+
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub triangles: Vec<Triangle>,
@@ -91,6 +99,10 @@ pub struct Scene {
     pub background: Vec3,
     /// An environment image instead of the plain colour.
     pub environment: Option<EnvironmentMap>,
+    /// What camera rays see where they leave the scene, where that is not
+    /// the World above (Blender's Light Path › Is Camera Ray in the World's
+    /// nodes): it lights nothing.
+    pub camera_world: Option<Backdrop>,
     /// Point, spot and sun lights.
     pub punctual: Vec<PunctualLight>,
     /// Blender area lights marked Portal: where the World's light comes
@@ -115,10 +127,22 @@ impl Scene {
             images: Vec::new(),
             background: Vec3::ZERO,
             environment: None,
+            camera_world: None,
             punctual: Vec::new(),
             portals: Vec::new(),
             warnings: Vec::new(),
             bytes_read: 0,
+        }
+    }
+
+    /// Radiance a camera ray sees along `dir` (unit) where it leaves the
+    /// scene: the World, or the camera's own (`camera_world`).
+    #[inline]
+    pub fn world_seen_by_camera(&self, dir: Vec3) -> Vec3 {
+        match &self.camera_world {
+            Some(Backdrop::Colour(c)) => *c,
+            Some(Backdrop::Image(map)) => map.radiance(dir),
+            None => self.world_radiance(dir),
         }
     }
 

@@ -294,7 +294,8 @@ fn render_job(paths: &JobPaths, defaults: &JobOptions, cancel: &AtomicBool, stat
     };
     let job_id = request.job.as_deref();
     let mut options = JobOptions::from(&request).or(defaults);
-    if let Some(env) = options.environment.as_mut() {
+    let camera_environment = options.camera_world.as_mut().and_then(|w| w.environment.as_mut());
+    for env in options.environment.iter_mut().chain(camera_environment) {
         env.image = paths.dir.join(&env.image);
     }
     let scene_path = paths.scene(&request);

@@ -168,6 +168,44 @@ fn emitters_too_bright_to_sum_are_refused() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A request's `camera_world` (Blender's Light Path › Is Camera Ray in the
+/// World): a scene with nothing in it shows it in every pixel, as a colour
+/// or an image × strength; a bad one is refused in one line.
+#[test]
+fn a_request_gives_the_camera_a_world_of_its_own() {
+    let dir = temp_dir("camera-world");
+    let (scene, request, exr) = (dir.join("empty.gltf"), dir.join("request.json"), dir.join("out.exr"));
+    std::fs::write(&scene, r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"camera": 0}], "cameras": [{"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}}]}"#).unwrap();
+    let sky = dir.join("sky.png");
+    image::RgbImage::from_pixel(4, 2, image::Rgb([255, 255, 255])).save(&sky).unwrap();
+    let sky = sky.to_str().unwrap().replace('\\', "/");
+    let render = |json: &str| {
+        std::fs::write(&request, json).unwrap();
+        glint(&["render", scene.to_str().unwrap(), "--request", request.to_str().unwrap(), "--spp", "2", "--width", "4", "--height", "4", "--stats", "-o", exr.to_str().unwrap()])
+    };
+    for (json, seen) in [
+        (r#"{"background": [1, 1, 1], "camera_world": {"background": [0.5, 0.25, 2]}}"#.to_string(), [0.5, 0.25, 2.0]),
+        (format!(r#"{{"background": [1, 1, 1], "camera_world": {{"environment": {{"image": "{sky}", "strength": 3}}}}}}"#), [3.0; 3]),
+        (r#"{"background": [1, 1, 1], "camera_world": {}}"#.to_string(), [0.0; 3]),
+    ] {
+        let o = render(&json);
+        assert!(o.status.success() && stderr(&o).contains("camera World"), "{json}: {}", stderr(&o));
+        let pixels = glint::output::read_exr(&exr).unwrap().2;
+        assert!(pixels.iter().all(|p| (p[0] - seen[0]).abs() < 1e-5 && (p[1] - seen[1]).abs() < 1e-5 && (p[2] - seen[2]).abs() < 1e-5), "{json}: {:?}", pixels[0]);
+    }
+    for (json, expect) in [
+        (r#"{"camera_world": {"background": [-1, 0, 0]}}"#.to_string(), "camera World: background must be finite and ≥ 0"),
+        (r#"{"camera_world": {"background": [1e25, 0, 0]}}"#.to_string(), "the World the camera sees is 1e25"),
+        (r#"{"camera_world": {"environment": {"image": "/nonexistent/sky.hdr"}}}"#.to_string(), "camera World: environment image '/nonexistent/sky.hdr'"),
+        (r#"{"camera_world": {"colour": [1, 1, 1]}}"#.to_string(), "unknown field `colour`"),
+    ] {
+        let o = render(&json);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.lines().count() == 1 && err.contains(expect), "{json}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A request's lens the camera cannot have is refused in one line, naming
 /// the scene and the value; a good one renders (a panoramic one too).
 #[test]

@@ -201,17 +201,50 @@ fn a_floor_under_a_uniform_world_has_radiance_albedo_times_world() {
     for mis in [true, false] {
         let (img, stats) = render(&scene, &RenderSettings { mis, ..settings(24, 24, 32, 8, 1) }, 2);
         common::assert_clean(&img, &stats, "floor under a uniform World");
-        for c in 0..3 {
-            let values: Vec<f32> = img.iter().map(|p| p[c]).collect();
-            let (mean, se) = mean_and_standard_error(&values);
-            let expected = 0.6 * b[c] as f64;
-            assert!((mean - expected).abs() < 5.0 * se + 1e-4 * expected, "channel {c}: {mean} vs {expected} (se {se})");
-        }
+        assert_each_channel_near(&img, 0.6 * b);
     }
     // Looking up, a ray that leaves the scene sees the World itself.
     scene.camera = common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 2.0, 0.0), 0.5);
     let (img, _) = render(&scene, &settings(8, 8, 1, 8, 1), 1);
     assert!(img.iter().all(|p| *p == b));
+}
+
+/// Each channel's mean over the image is `expected`'s within 5 standard
+/// errors (and 10⁻⁴ of it, for a channel without noise).
+fn assert_each_channel_near(img: &[Vec3], expected: Vec3) {
+    for c in 0..3 {
+        let values: Vec<f32> = img.iter().map(|p| p[c]).collect();
+        let (mean, se) = mean_and_standard_error(&values);
+        let expected = expected[c] as f64;
+        assert!((mean - expected).abs() < 5.0 * se + 1e-4 * expected, "channel {c}: {mean} vs {expected} (se {se})");
+    }
+}
+
+/// Blender's Light Path › Is Camera Ray mixing two World shaders: camera
+/// rays that leave the scene see one (`camera_world`), also through a card
+/// of alpha 0 (Cycles keeps a ray the camera's through transparency), and
+/// every other ray the other. A floor under it has radiance ρ·B of the
+/// lighting World B alone, and a mirror shows B.
+#[test]
+fn a_world_only_the_camera_sees_lights_nothing() {
+    let (b, seen) = (Vec3::new(0.2, 0.5, 1.0), Vec3::new(3.0, 0.0, 0.25));
+    let card = glint::material::Material { alpha: 0.0, alpha_mode: glint::material::AlphaMode::Blend, ..common::diffuse("card", 0.9) };
+    let mut triangles = common::horizontal_quad(Vec3::ZERO, 1e4, 0.0, true, 0);
+    triangles.extend(common::horizontal_quad(Vec3::new(0.0, 1.5, 0.0), 10.0, 1.5, false, 1));
+    let mut scene = Scene::new(triangles, vec![common::diffuse("floor", 0.6), card], common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5));
+    (scene.background, scene.camera_world) = (b, Some(glint::scene::Backdrop::Colour(seen)));
+    let (img, stats) = render(&scene, &RenderSettings { mis: true, ..settings(24, 24, 32, 8, 1) }, 2);
+    common::assert_clean(&img, &stats, "floor under a World the camera does not see");
+    assert_each_channel_near(&img, 0.6 * b);
+    // Looking up through the card, the camera sees its own World.
+    scene.camera = common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 2.0, 0.0), 0.5);
+    let (img, _) = render(&scene, &settings(8, 8, 1, 8, 1), 1);
+    assert!(img.iter().all(|p| *p == seen), "{:?}", img[0]);
+    // A mirror shows the World that lights the scene.
+    scene.materials[0] = glint::material::Material { name: "mirror".into(), base_color: Vec3::ONE, metallic: 1.0, roughness: 0.0, ..Default::default() };
+    scene.camera = common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, -1.0), 0.3);
+    let (img, _) = render(&scene, &RenderSettings { mis: true, ..settings(8, 8, 4, 2, 1) }, 1);
+    assert!(img.iter().all(|p| (*p - b).abs().max_element() < 1e-4), "{:?}", img[0]);
 }
 
 /// A Blender area light from a render request: a disk of radius r, power P,

@@ -44,6 +44,19 @@ def write_hdr(path, rgb):
         f.write(rgbe.tobytes())
 
 
+def floor_and_sphere(scene, eye, tilt, lens):
+    """A grey diffuse floor and a glossy metal sphere on it, seen from `eye`
+    tilted `tilt` degrees up from straight down, 32 × 32 pixels."""
+    bpy.ops.mesh.primitive_plane_add(size=8.0)
+    give_principled(bpy.context.object, "Floor", Base_Color=(0.6, 0.6, 0.6, 1.0), Roughness=1.0)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.8, location=(0, 0, 0.8))
+    bpy.ops.object.shade_smooth()
+    give_principled(bpy.context.object, "Metal", Base_Color=(0.9, 0.7, 0.5, 1.0), Metallic=1.0, Roughness=0.3)
+    add_camera(scene, eye, (math.radians(tilt), 0, 0), lens=lens)
+    scene.render.resolution_x = scene.render.resolution_y = 32
+    scene.view_settings.view_transform = "Standard"
+
+
 def test_environment_lit_scene_matches_cycles(empty_scene, tmp_path):
     world = bpy.data.worlds.new("World")
     world.use_nodes = True
@@ -58,15 +71,7 @@ def test_environment_lit_scene_matches_cycles(empty_scene, tmp_path):
     links.new(env.outputs["Color"], nodes["Background"].inputs["Color"])
     nodes["Background"].inputs["Strength"].default_value = 1.5
     empty_scene.world = world
-
-    bpy.ops.mesh.primitive_plane_add(size=8.0)
-    give_principled(bpy.context.object, "Floor", Base_Color=(0.6, 0.6, 0.6, 1.0), Roughness=1.0)
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.8, location=(0, 0, 0.8))
-    bpy.ops.object.shade_smooth()
-    give_principled(bpy.context.object, "Metal", Base_Color=(0.9, 0.7, 0.5, 1.0), Metallic=1.0, Roughness=0.3)
-    add_camera(empty_scene, (0, -5.0, 2.2), (math.radians(75), 0, 0), lens=35)
-    empty_scene.render.resolution_x = empty_scene.render.resolution_y = 32
-    empty_scene.view_settings.view_transform = "Standard"
+    floor_and_sphere(empty_scene, (0, -5.0, 2.2), 75, 35)
 
     z, bias = compare(empty_scene, tmp_path, 128)
     import json
@@ -113,3 +118,80 @@ def test_a_packed_world_image_renders_as_its_file(empty_scene, tmp_path):
     copy = json.loads(open(daemon.current().path("request.json")).read())["environment"]["image"]
     assert os.path.dirname(copy) == daemon.current().job_dir and open(copy, "rb").read() == original, copy
     assert on_disk.max() > 0.1 and np.array_equal(on_disk, packed), (on_disk.max(), np.abs(on_disk - packed).max())
+
+
+def camera_world_scene(scene, tmp_path):
+    """The environment test's floor and metal sphere, with the camera
+    seeing the sky above them, under a World whose Mix Shader gives the
+    camera rays a plain red-orange (Fac: Light Path › Is Camera Ray) and
+    every other ray the environment image. Returns the node tree."""
+    world = bpy.data.worlds.new("World")
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    env = nodes.new("ShaderNodeTexEnvironment")
+    env.image = sky(tmp_path / "sky.hdr")
+    links.new(env.outputs["Color"], nodes["Background"].inputs["Color"])
+    nodes["Background"].inputs["Strength"].default_value = 1.5
+    seen = nodes.new("ShaderNodeBackground")
+    seen.inputs["Color"].default_value = (0.8, 0.15, 0.05, 1.0)
+    seen.inputs["Strength"].default_value = 2.0
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(nodes.new("ShaderNodeLightPath").outputs["Is Camera Ray"], mix.inputs["Fac"])
+    links.new(nodes["Background"].outputs["Background"], mix.inputs[1])
+    links.new(seen.outputs["Background"], mix.inputs[2])
+    links.new(mix.outputs["Shader"], nodes["World Output"].inputs["Surface"])
+    scene.world = world
+    floor_and_sphere(scene, (0, -5.0, 1.6), 82, 30)
+    return world.node_tree
+
+
+def test_a_world_the_camera_alone_sees_matches_cycles(empty_scene, tmp_path):
+    """Light Path › Is Camera Ray mixing two World shaders (the usual way
+    to light a scene by an HDRI and show a plain colour behind it) had
+    rendered black, with a warning. The camera's sky is the plain colour;
+    the floor, lit, and the sphere, reflecting, show the image's light.
+    Per 8 × 8 tile within 5 combined standard errors (two seeds a side);
+    the same World as a Mix of colours into one Background makes the same
+    request, and World › Ray Visibility › Camera off shows black."""
+    import json
+
+    from glint import daemon, export
+
+    from helpers import render_seeds, tile_agreement
+    from test_textures_vs_cycles import BOUNCES, TILE
+
+    tree = camera_world_scene(empty_scene, tmp_path)
+    cycles, glint = render_seeds(empty_scene, tmp_path, 128, BOUNCES, 2)
+    z, bias = tile_agreement(cycles, glint, TILE)
+    # The top rows (Blender's last) see the sky: the camera's colour alone.
+    for image in (cycles[0], glint[0]):
+        assert np.allclose(image[-2:], [1.6, 0.3, 0.1], atol=1e-3), image[-1, :4]
+    request = json.loads(open(daemon.current().path("request.json")).read())
+    assert np.allclose(request["camera_world"]["background"], [1.6, 0.3, 0.1]), request["camera_world"]
+    assert request["environment"]["strength"] == 1.5
+    print(f"camera's own World: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
+    assert z.max() < 5.0, (z.max(), bias)
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    by_shader, _ = export.render_request(depsgraph, "j", 32, 32)
+    # The same as one Background whose Color mixes the image and the colour.
+    nodes, links = tree.nodes, tree.links
+    colour = nodes.new("ShaderNodeMix")
+    colour.data_type = "RGBA"
+    socket = {s.identifier: s for s in colour.inputs}
+    links.new(nodes["Light Path"].outputs["Is Camera Ray"], socket["Factor_Float"])
+    links.new(nodes["Environment Texture"].outputs["Color"], socket["A_Color"])
+    socket["B_Color"].default_value = (0.8 * 2 / 1.5, 0.15 * 2 / 1.5, 0.05 * 2 / 1.5, 1.0)
+    links.new(next(s for s in colour.outputs if s.identifier == "Result_Color"), nodes["Background"].inputs["Color"])
+    links.new(nodes["Background"].outputs["Background"], nodes["World Output"].inputs["Surface"])
+    by_colour, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", 32, 32)
+    assert not [w for w in warnings if "World" in w], warnings
+    assert by_colour["environment"] == by_shader["environment"] and np.allclose(by_colour["camera_world"]["background"], by_shader["camera_world"]["background"]), (by_colour, by_shader)
+
+    # Hidden from the camera, the World is black where the camera sees it.
+    links.new(nodes["Environment Texture"].outputs["Color"], nodes["Background"].inputs["Color"])
+    empty_scene.world.cycles_visibility.camera = False
+    z, bias = compare(empty_scene, tmp_path, 64)
+    assert json.loads(open(daemon.current().path("request.json")).read())["camera_world"] == {"background": [0.0, 0.0, 0.0]}
+    print(f"World hidden from the camera: bias against Cycles {np.round(bias * 100, 2)} %, worst tile {z.max():.1f} σ")
+    assert z.max() < 5.0, (z.max(), bias)
