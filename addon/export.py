@@ -36,7 +36,7 @@ Cycles' Transparent Glass with its Roughness Threshold) and Pixel Filter,
 a World image packed into the .blend (written into the job folder), Coat Tint, Diffuse
 Roughness, samples, bounces,
 time limit, Noise Threshold and Min Samples (adaptive sampling), a Volume
-Absorption inside glass, a Diffuse, Glossy or Glass BSDF node in place of
+Absorption inside glass, a Diffuse, Glossy, Glass or Translucent BSDF node in place of
 a Principled BSDF (the exporter writes glTF's default material), seed, the
 World colour, every area light (glTF has none):
 shape, size, world transform, colour and power, and the sizes of the
@@ -403,11 +403,11 @@ def render_request(depsgraph, job, width, height, folder=None):
         warnings.append(f"{', '.join(coat_iors)}: Coat IOR other than 1.5 is not rendered by Glint (glTF's coat has IOR 1.5)")
     bsdf_nodes, shader_mixes, other_surfaces, mixed_otherwise, approximate, node_single_scatter = surface_shaders(depsgraph)
     if mixed_otherwise:
-        warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader, or an Add Shader with an Emission shader, is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
+        warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass, Transparent or Translucent BSDF or an Emission shader, or an Add Shader with an Emission shader, is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
     if other_surfaces:
-        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass or Transparent BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
+        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass, Transparent or Translucent BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
     if approximate:
-        warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX — in a Mix Shader, as the Principled BSDF's —, a Transparent BSDF white, no Normal: exact; otherwise not)")
+        warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX — in a Mix Shader, as the Principled BSDF's —, a Transparent BSDF white, a Translucent BSDF, no Normal: exact; otherwise not)")
     absorption, other_volumes = volume_absorption(depsgraph)
     if other_volumes:
         warnings.append(f"{', '.join(other_volumes)}: a volume other than a Volume Absorption node with unlinked Color and Density is not rendered by Glint")
@@ -664,7 +664,7 @@ def upstream(socket):
 
 
 # Blender's plain BSDF nodes Glint renders, by the request's names.
-PLAIN_NODES = {"BSDF_DIFFUSE": "diffuse", "BSDF_GLOSSY": "glossy", "BSDF_GLASS": "glass", "BSDF_TRANSPARENT": "transparent", "EMISSION": "emission"}
+PLAIN_NODES = {"BSDF_DIFFUSE": "diffuse", "BSDF_GLOSSY": "glossy", "BSDF_GLASS": "glass", "BSDF_TRANSPARENT": "transparent", "BSDF_TRANSLUCENT": "translucent", "EMISSION": "emission"}
 
 
 def plain_node(material, node):
@@ -681,6 +681,8 @@ def plain_node(material, node):
     record = {"material": material.name, "node": PLAIN_NODES[node.type], "color": unit_rgb(node.inputs["Color"])}
     if node.type == "BSDF_TRANSPARENT":
         return record, record["color"] == [1.0, 1.0, 1.0], False
+    if node.type == "BSDF_TRANSLUCENT":
+        return record, not node.inputs["Normal"].is_linked and list(node.inputs["Color"].default_value[:3]) == record["color"], False
     if node.type == "EMISSION":
         record["strength"] = max(float(node.inputs["Strength"].default_value), 0.0)
         return record, list(node.inputs["Color"].default_value[:3]) == record["color"], False
@@ -758,7 +760,7 @@ def surface_shaders(depsgraph):
     for the request's `bsdf_nodes`; a Mix Shader of the Principled BSDF
     and a plain node (`shader_mix`; the exporter writes the Principled
     BSDF alone), for its `shader_mixes`; the names of materials with other
-    surfaces (a Mix Shader of other shaders, a Translucent BSDF, …) and of
+    surfaces (a Mix Shader of other shaders, a Subsurface Scattering node, …) and of
     those whose Principled BSDF is mixed or added in other ways; those of
     nodes Glint renders only approximately; and those whose node asks for
     GGX without multiple scattering (a plain node's own)."""

@@ -254,15 +254,22 @@ impl EnvironmentMap {
     }
 }
 
-/// A direction for a uniform World: cosine-distributed about `ng`.
-pub fn sample_uniform(ng: Vec3, u: Vec2) -> (Vec3, f32) {
+/// A direction for a uniform World: cosine-distributed about `ng`, or,
+/// for a surface light reaches from both sides (`two_sided`: it
+/// transmits), about `ng` or `−ng`, each half the time.
+pub fn sample_uniform(ng: Vec3, two_sided: bool, u: Vec2) -> (Vec3, f32) {
+    if two_sided {
+        let (side, u) = if u.x < 0.5 { (ng, Vec2::new(2.0 * u.x, u.y)) } else { (-ng, Vec2::new((2.0 * u.x - 1.0).min(1.0 - f32::EPSILON), u.y)) };
+        let local = cosine_hemisphere(u);
+        return (Frame::from_normal(side).to_world(local), local.z / (2.0 * PI));
+    }
     let local = cosine_hemisphere(u);
     (Frame::from_normal(ng).to_world(local), local.z / PI)
 }
 
 /// The pdf of `sample_uniform` for `dir`.
-pub fn uniform_pdf(ng: Vec3, dir: Vec3) -> f32 {
-    dir.dot(ng).max(0.0) / PI
+pub fn uniform_pdf(ng: Vec3, two_sided: bool, dir: Vec3) -> f32 {
+    if two_sided { dir.dot(ng).abs() / (2.0 * PI) } else { dir.dot(ng).max(0.0) / PI }
 }
 
 #[cfg(test)]
@@ -428,8 +435,14 @@ mod tests {
     #[test]
     fn uniform_sampling_is_cosine_about_the_normal() {
         let n = Vec3::new(0.0, 1.0, 0.0);
-        let (d, pdf) = sample_uniform(n, Vec2::new(0.3, 0.6));
-        assert!((pdf - uniform_pdf(n, d)).abs() < 1e-6 && d.dot(n) > 0.0);
-        assert_eq!(uniform_pdf(n, -n), 0.0);
+        let (d, pdf) = sample_uniform(n, false, Vec2::new(0.3, 0.6));
+        assert!((pdf - uniform_pdf(n, false, d)).abs() < 1e-6 && d.dot(n) > 0.0);
+        assert_eq!(uniform_pdf(n, false, -n), 0.0);
+        // Two-sided: the same densities halved, on both sides.
+        for (u, below) in [(0.15, false), (0.65, true)] {
+            let (d, pdf) = sample_uniform(n, true, Vec2::new(u, 0.6));
+            assert!((pdf - uniform_pdf(n, true, d)).abs() < 1e-6 && (d.dot(n) < 0.0) == below, "{d} {pdf}");
+            assert!((pdf - d.dot(n).abs() / (2.0 * PI)).abs() < 1e-6);
+        }
     }
 }

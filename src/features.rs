@@ -93,6 +93,8 @@ pub struct Features {
     pub alpha: usize,
     /// Materials with some glass (KHR_materials_transmission).
     pub transmission: usize,
+    /// Of those, Translucent BSDF nodes' (Lambert through the surface).
+    pub translucent: usize,
     /// Glass that absorbs inside (media.rs): paths track the medium they
     /// are in.
     pub absorbing: usize,
@@ -173,6 +175,7 @@ impl Features {
             }
             f.alpha += m.has_alpha() as usize;
             f.transmission += m.is_transmissive() as usize;
+            f.translucent += (m.is_transmissive() && m.translucent) as usize;
             f.absorbing += crate::media::absorbs(m) as usize;
             f.coat += m.is_coated() as usize;
             f.anisotropic += (m.anisotropy > 0.0) as usize;
@@ -233,8 +236,11 @@ impl fmt::Display for Features {
         if self.alpha > 0 {
             on.push(format!("alpha={}", self.alpha));
         }
-        if self.transmission > 0 {
-            on.push(format!("glass={}", self.transmission));
+        if self.transmission > self.translucent {
+            on.push(format!("glass={}", self.transmission - self.translucent));
+        }
+        if self.translucent > 0 {
+            on.push(format!("translucent={}", self.translucent));
         }
         if self.absorbing > 0 {
             on.push(format!("absorbing={}", self.absorbing));

@@ -731,13 +731,13 @@ fn pick_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, mis: bool, rng:
 
 /// Solid-angle pdf of light sampling (with MIS: only MIS asks) reaching
 /// the World along `dir` from a point `p` with geometric normal `ng`.
-fn world_pdf(ctx: &Context, p: Vec3, ng: Vec3, dir: Vec3) -> f32 {
+fn world_pdf(ctx: &Context, p: Vec3, ng: Vec3, two_sided: bool, dir: Vec3) -> f32 {
     // A World light samples leave alone needs no table looked up.
     let probability = ctx.lights.world_probability(p, true);
     if probability == 0.0 {
         return 0.0;
     }
-    probability * world_direction_pdf(ctx, p, ng, dir, true)
+    probability * world_direction_pdf(ctx, p, ng, two_sided, dir, true)
 }
 
 /// The share of light samples of the World from `p` that go through the
@@ -758,30 +758,31 @@ fn portal_share(ctx: &Context, p: Vec3, mis: bool) -> f32 {
 
 /// The solid-angle density of the World's directions drawn over the whole
 /// sphere (the environment image's importance, or uniform).
-fn sphere_pdf(ctx: &Context, ng: Vec3, dir: Vec3, mis: bool) -> f32 {
+fn sphere_pdf(ctx: &Context, ng: Vec3, two_sided: bool, dir: Vec3, mis: bool) -> f32 {
     match &ctx.scene.environment {
         Some(map) => map.pdf(dir, mis),
-        None => environment::uniform_pdf(ng, dir),
+        None => environment::uniform_pdf(ng, two_sided, dir),
     }
 }
 
 /// The solid-angle density with which `world_direction` draws `dir`.
-fn world_direction_pdf(ctx: &Context, p: Vec3, ng: Vec3, dir: Vec3, mis: bool) -> f32 {
+fn world_direction_pdf(ctx: &Context, p: Vec3, ng: Vec3, two_sided: bool, dir: Vec3, mis: bool) -> f32 {
     match portal_share(ctx, p, mis) {
-        0.0 => sphere_pdf(ctx, ng, dir, mis),
+        0.0 => sphere_pdf(ctx, ng, two_sided, dir, mis),
         1.0 => ctx.lights.portals.pdf(p, dir),
-        share => share * ctx.lights.portals.pdf(p, dir) + (1.0 - share) * sphere_pdf(ctx, ng, dir, mis),
+        share => share * ctx.lights.portals.pdf(p, dir) + (1.0 - share) * sphere_pdf(ctx, ng, two_sided, dir, mis),
     }
 }
 
 /// A direction toward the World from `si` and its solid-angle density:
 /// through the portals for `portal_share` of the draws, else over the
-/// sphere.
-fn world_direction(ctx: &Context, si: &SurfaceHit, u: Vec2, mis: bool) -> Option<(Vec3, f32)> {
+/// sphere (for a uniform World, about the normal, on both sides where
+/// the BSDF transmits: `two_sided`).
+fn world_direction(ctx: &Context, si: &SurfaceHit, two_sided: bool, u: Vec2, mis: bool) -> Option<(Vec3, f32)> {
     let share = portal_share(ctx, si.p, mis);
     let sphere = |u: Vec2| match &ctx.scene.environment {
         Some(map) => map.sample(u, mis),
-        None => Some(environment::sample_uniform(si.ng, u)),
+        None => Some(environment::sample_uniform(si.ng, two_sided, u)),
     };
     if share == 0.0 {
         return sphere(u);
@@ -794,13 +795,13 @@ fn world_direction(ctx: &Context, si: &SurfaceHit, u: Vec2, mis: bool) -> Option
     } else {
         sphere(Vec2::new(((u.x - share) / (1.0 - share)).min(1.0 - f32::EPSILON), u.y))?.0
     };
-    Some((wi, world_direction_pdf(ctx, si.p, si.ng, wi, mis)))
+    Some((wi, world_direction_pdf(ctx, si.p, si.ng, two_sided, wi, mis)))
 }
 
 /// One direction toward the World and its shadow ray.
 #[allow(clippy::too_many_arguments)]
 fn world_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, probability: f32, u: Vec2, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
-    let Some((wi, pdf)) = world_direction(ctx, si, u, mis) else { return Vec3::ZERO };
+    let Some((wi, pdf)) = world_direction(ctx, si, bsdf.transmits(), u, mis) else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, wi).filter(|_| pdf > 0.0) else { return Vec3::ZERO };
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     let le = ctx.scene.world_radiance(wi);
@@ -879,7 +880,7 @@ fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
     if from.delta {
         return le;
     }
-    le * from.weight(mis, || world_pdf(ctx, from.p, from.ng, dir))
+    le * from.weight(mis, || world_pdf(ctx, from.p, from.ng, from.light_side == Vec3::ZERO, dir))
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E
@@ -1340,7 +1341,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         } else {
             Rays::GLOSSY
         };
-        see_through = see_through && settings.transparent_glass.is_some_and(|threshold| s.wi.z < 0.0 && si.surface.roughness <= threshold);
+        see_through = see_through && settings.transparent_glass.is_some_and(|threshold| s.wi.z < 0.0 && !si.surface.translucent && si.surface.roughness <= threshold);
         o = origin;
         d = wi;
         // What the next vertex's Chain starts from; a delta lobe here is

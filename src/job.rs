@@ -246,6 +246,7 @@ fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
         BsdfNodeKind::Diffuse => (colour, Vec3::ONE, 0.0, 0.0, 0.0),
         BsdfNodeKind::Glossy => (colour, Vec3::ONE, 1.0, 1.0, 0.0),
         BsdfNodeKind::Glass => (colour * colour, colour, 0.0, 1.0, 1.0),
+        BsdfNodeKind::Translucent => (colour, Vec3::ONE, 0.0, 0.0, 1.0),
         BsdfNodeKind::Transparent => {
             (m.alpha, m.alpha_mode) = (0.0, AlphaMode::Blend);
             return;
@@ -260,6 +261,7 @@ fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
     // Principled BSDF's Diffuse Roughness; the other nodes have none.
     m.diffuse_roughness = if node.node == BsdfNodeKind::Diffuse { *roughness } else { 0.0 };
     (m.roughness, m.ior, m.specular_tint) = (*roughness, *ior, tint);
+    m.translucent = node.node == BsdfNodeKind::Translucent;
 }
 
 /// Blender's Mix Shader of a material's Principled BSDF and a plain node

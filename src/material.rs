@@ -20,6 +20,9 @@ pub struct Surface {
     /// KHR_materials_transmission's factor: the share of the non-metal
     /// that is glass rather than a specular layer over a diffuse base.
     pub transmission: f32,
+    /// The transmission is Blender's Translucent BSDF, Lambert through the
+    /// surface, rather than glass (bsdf/translucent.rs).
+    pub translucent: bool,
     /// The relative IOR the ray meets here: the material's IOR entering a
     /// front face, its inverse leaving through a back face (SurfaceHit).
     pub ior: f32,
@@ -229,6 +232,9 @@ pub struct Material {
     pub multiscatter: bool,
     /// KHR_materials_transmission transmissionFactor (0 without it).
     pub transmission: f32,
+    /// Its transmission is a Translucent BSDF node's (a render request's):
+    /// Lambert through the surface, not glass.
+    pub translucent: bool,
     /// KHR_materials_ior (1.5 without it, Blender's default too).
     pub ior: f32,
     /// σ_a, per metre of world space, of the medium inside the mesh, which
@@ -305,6 +311,7 @@ impl Default for Material {
             spread: None,
             multiscatter: true,
             transmission: 0.0,
+            translucent: false,
             ior: 1.5,
             absorption: Vec3::ZERO,
             coat: 0.0,
@@ -343,6 +350,7 @@ impl Material {
             specular: self.specular,
             multiscatter: self.multiscatter,
             transmission: self.transmission,
+            translucent: self.translucent,
             ior: self.ior,
             coat: self.coat,
             coat_roughness: self.coat_roughness,

@@ -73,6 +73,8 @@ pub enum BsdfNodeKind {
     /// A Transparent BSDF: rays pass (white only; the add-on names a
     /// coloured one as approximate).
     Transparent,
+    /// A Translucent BSDF: Lambert through the surface, in its colour.
+    Translucent,
     /// An Emission shader: black, emitting Color × Strength (radiance,
     /// W·sr⁻¹·m⁻², as the Principled BSDF's Emission).
     Emission,

@@ -209,6 +209,25 @@ fn a_floor_under_a_uniform_world_has_radiance_albedo_times_world() {
     assert!(img.iter().all(|p| *p == b));
 }
 
+/// A Translucent BSDF sheet of albedo ρ in a uniform World B: from above
+/// it shows what it passes of the World below, ρ·B, and reflects nothing
+/// — light samples, BSDF samples through it and their MIS, with and
+/// without MIS; its features line names it.
+#[test]
+fn a_translucent_sheet_passes_albedo_times_the_world_behind_it() {
+    let b = Vec3::new(0.2, 0.5, 1.0);
+    let sheet = glint::material::Material { transmission: 1.0, translucent: true, metallic: 0.0, specular: 0.0, base_color: Vec3::new(0.9, 0.6, 0.3), ..Default::default() };
+    let mut scene = Scene::new(common::horizontal_quad(Vec3::ZERO, 1e4, 0.0, true, 0), vec![sheet], common::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5));
+    scene.background = b;
+    for mis in [true, false] {
+        let settings = RenderSettings { mis, ..settings(24, 24, 32, 8, 1) };
+        let (img, stats) = render(&scene, &settings, 2);
+        common::assert_clean(&img, &stats, "translucent sheet");
+        assert_each_channel_near(&img, Vec3::new(0.9, 0.6, 0.3) * b);
+        assert!(Context::new(&scene).0.features_line(&settings).contains("translucent=1"), "{}", Context::new(&scene).0.features_line(&settings));
+    }
+}
+
 /// Each channel's mean over the image is `expected`'s within 5 standard
 /// errors (and 10⁻⁴ of it, for a channel without noise).
 fn assert_each_channel_near(img: &[Vec3], expected: Vec3) {

@@ -282,3 +282,30 @@ fn principled_glass_weights_are_cycles_weights() {
     assert!((s.wi + dir_at(30.0)).length() < 1e-3 && s.delta, "{}", s.wi);
 }
 
+
+/// A Translucent BSDF (a request's node: transmission 1, `translucent`):
+/// its sampler matches its pdf, alone and as half of a mix with a
+/// plastic; it passes its albedo, base/π on the far side, at every angle
+/// and reflects nothing; and a sample's weight is that albedo exactly.
+#[test]
+fn translucent_is_lambert_through_the_surface() {
+    let albedo = Vec3::new(0.8, 0.5, 0.2);
+    let translucent = |transmission| Surface { translucent: true, ..glass(albedo, 0.0, 0.5, transmission, 1.5) };
+    for theta in [0.0f32, 45.0, 85.0] {
+        let wo = dir_at(theta);
+        for transmission in [1.0f32, 0.5] {
+            let bsdf = WithGlass::<PrincipledBsdf>::new(&translucent(transmission), wo);
+            let r = bsdf_chi2(&bsdf, wo, N, 33);
+            assert!(r.p_value > P_MIN, "transmission {transmission} θo {theta}: p = {}", r.p_value);
+            assert!((r.pdf_integral - r.success_fraction).abs() < 5e-3, "θo {theta}: ∫pdf {} vs {}", r.pdf_integral, r.success_fraction);
+        }
+        let bsdf = WithGlass::<PrincipledBsdf>::new(&translucent(1.0), wo);
+        assert!(bsdf.transmits());
+        let passed = super::chi2::albedo_of(&bsdf, wo, 20_000, 3);
+        // Every weight is the albedo; the f32 sum of 20,000 rounds.
+        assert!((passed - albedo).abs().max_element() < 1e-3, "θo {theta}: {passed}");
+        let (below, above) = (Vec3::new(0.3, -0.2, -0.5).normalize(), Vec3::new(0.3, -0.2, 0.5).normalize());
+        assert!((Bsdf::eval(&bsdf, wo, below) - albedo * std::f32::consts::FRAC_1_PI).abs().max_element() < 1e-7);
+        assert_eq!((Bsdf::eval(&bsdf, wo, above), Bsdf::pdf(&bsdf, wo, above)), (Vec3::ZERO, 0.0));
+    }
+}

@@ -98,6 +98,35 @@ pub mod lambert {
     }
 }
 
+// ---------------------------------------------------------------- Translucent
+
+/// Blender's Translucent BSDF: Lambert through the surface, f = albedo/π
+/// for wi on the other side from wo, sampled by the cosine there (Cycles'
+/// bsdf_translucent).
+pub mod translucent {
+    use super::*;
+
+    pub fn eval(albedo: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+        if cos_theta(wo) * cos_theta(wi) >= 0.0 {
+            return Vec3::ZERO;
+        }
+        albedo * FRAC_1_PI
+    }
+
+    /// A direction on the other side from `wo`.
+    pub fn sample(wo: Vec3, u: Vec2) -> Vec3 {
+        let w = cosine_hemisphere(u);
+        Vec3::new(w.x, w.y, if cos_theta(wo) < 0.0 { w.z } else { -w.z })
+    }
+
+    pub fn pdf(wo: Vec3, wi: Vec3) -> f32 {
+        if cos_theta(wo) * cos_theta(wi) >= 0.0 {
+            return 0.0;
+        }
+        cosine_hemisphere_pdf(cos_theta(wi).abs())
+    }
+}
+
 // ---------------------------------------------------------------- GGX
 
 pub mod ggx {

@@ -9,7 +9,7 @@
 
 use super::dielectric::Dielectric;
 use super::microfacet::eta_from_f0;
-use super::{Bsdf, BsdfSample};
+use super::{translucent, Bsdf, BsdfSample};
 use crate::material::Surface;
 use glam::Vec2;
 use crate::Vec3;
@@ -19,12 +19,47 @@ pub struct WithGlass<B> {
     /// None when the surface is all glass.
     base: Option<B>,
     /// None when none of the surface is glass.
-    glass: Option<Dielectric>,
+    glass: Option<Transmitting>,
     /// t above.
     glass_weight: f32,
     /// Probability of sampling the glass (t: both parts return about all
     /// they receive, so their weights are their shares).
     glass_probability: f32,
+}
+
+/// What the transmission part is: glass, or a Translucent BSDF node's
+/// Lambert through the surface in its colour (`Surface::translucent`).
+#[derive(Clone, Copy, Debug)]
+enum Transmitting {
+    Glass(Dielectric),
+    Translucent(Vec3),
+}
+
+impl Transmitting {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match self {
+            Transmitting::Glass(g) => g.eval(wo, wi),
+            Transmitting::Translucent(albedo) => translucent::eval(*albedo, wo, wi),
+        }
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Transmitting::Glass(g) => g.pdf(wo, wi),
+            Transmitting::Translucent(_) => translucent::pdf(wo, wi),
+        }
+    }
+
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        match self {
+            Transmitting::Glass(g) => g.sample(wo, u_lobe, u),
+            Transmitting::Translucent(albedo) => {
+                let wi = translucent::sample(wo, u);
+                let pdf = translucent::pdf(wo, wi);
+                (pdf > 0.0).then(|| BsdfSample { wi, f: translucent::eval(*albedo, wo, wi), pdf, weight: *albedo, delta: false, diffuse: true })
+            }
+        }
+    }
 }
 
 /// The relative IOR of the glass: the surface's, moved by
@@ -42,8 +77,12 @@ impl<B: Bsdf> WithGlass<B> {
     pub fn new(s: &Surface, wo: Vec3) -> Self {
         let metallic = s.metallic.clamp(0.0, 1.0);
         let t = (1.0 - metallic) * s.transmission.clamp(0.0, 1.0);
-        let glass = (t > 0.0).then(|| Dielectric::new(glass_eta(s), s.roughness, s.base_color.clamp(Vec3::ZERO, Vec3::ONE).map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)).with_specular_tint(s.specular_tint));
-        let base = (t < 1.0).then(|| B::new(&Surface { metallic: metallic / (1.0 - t), transmission: 0.0, ..*s }, wo));
+        let base_color = s.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+        let glass = (t > 0.0).then(|| match s.translucent {
+            true => Transmitting::Translucent(base_color),
+            false => Transmitting::Glass(Dielectric::new(glass_eta(s), s.roughness, base_color.map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)).with_specular_tint(s.specular_tint)),
+        });
+        let base = (t < 1.0).then(|| B::new(&Surface { metallic: metallic / (1.0 - t), transmission: 0.0, translucent: false, ..*s }, wo));
         WithGlass { base, glass, glass_weight: t, glass_probability: t }
     }
 }
@@ -78,12 +117,21 @@ impl<B: Bsdf> Bsdf for WithGlass<B> {
     }
 
     fn transmits(&self) -> bool {
-        self.glass.is_some_and(|g| !g.smooth)
+        match self.glass {
+            Some(Transmitting::Glass(g)) => !g.smooth,
+            Some(Transmitting::Translucent(_)) => true,
+            None => false,
+        }
     }
 
-    /// Glass passes on about all it receives.
+    /// Glass passes on about all it receives, a translucent surface its
+    /// albedo.
     fn reflectance(&self) -> f32 {
-        self.glass_weight + (1.0 - self.glass_weight) * self.base.as_ref().map_or(0.0, |b| b.reflectance())
+        let passed = match self.glass {
+            Some(Transmitting::Translucent(albedo)) => super::luminance(albedo),
+            _ => 1.0,
+        };
+        self.glass_weight * passed + (1.0 - self.glass_weight) * self.base.as_ref().map_or(0.0, |b| b.reflectance())
     }
 
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {

@@ -942,6 +942,7 @@ fn convert_material(m: &gltf::json::Material, index: usize) -> Material {
         spread: None,
         multiscatter: true,
         transmission,
+        translucent: false,
         ior,
         absorption,
         coat,

@@ -198,11 +198,11 @@ def test_a_volume_absorption_goes_in_the_request_or_is_named(empty_scene):
 
 
 def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty_scene):
-    """A Diffuse, Glossy or Glass BSDF straight into the output goes in the
+    """A Diffuse, Glossy, Glass or Translucent BSDF straight into the output goes in the
     request (their renders: test_materials_vs_cycles.py,
     test_glass_vs_cycles.py), with a warning where Glint renders it only
-    approximately; a surface glTF cannot carry otherwise (a Translucent
-    BSDF) is named in a warning; a Mix Shader of a Principled BSDF and such
+    approximately, and so does a Translucent BSDF; a surface glTF cannot
+    carry otherwise (a Subsurface Scattering node) is named in a warning; a Mix Shader of a Principled BSDF and such
     a node goes in the request with the node's share (its render:
     test_materials_vs_cycles.py), any other mix of a Principled BSDF is
     named in a warning (Glint renders the Principled BSDF alone, as the
@@ -247,13 +247,19 @@ def test_surfaces_without_a_principled_bsdf_go_in_the_request_or_are_named(empty
     records, named, _ = surfaces()
     assert records[0]["ior"] == 1.0 and named == ["Glint renders this BSDF node as the nearest Principled BSDF"], (records, named)
     translucent = nodes.new("ShaderNodeBsdfTranslucent")
-    records, named, _ = surfaces(translucent)
+    translucent.inputs["Color"].default_value = (0.25, 0.75, 0.125, 1.0)
+    assert surfaces(translucent) == ([{"material": "Red", "node": "translucent", "color": [0.25, 0.75, 0.125]}], [], None)
+    subsurface = nodes.new("ShaderNodeSubsurfaceScattering")
+    records, named, _ = surfaces(subsurface)
     assert records is None and len(named) == 1 and named[0].startswith("a surface without a Principled BSDF"), named
     mix = nodes.new("ShaderNodeMixShader")
     links.new(principled.outputs["BSDF"], mix.inputs[1])
-    links.new(translucent.outputs["BSDF"], mix.inputs[2])
+    links.new(subsurface.outputs[0], mix.inputs[2])
     records, named, _ = surfaces(mix)
     assert records is None and len(named) == 1 and named[0].startswith("a Principled BSDF mixed or added with other shaders otherwise"), named
+    links.new(translucent.outputs["BSDF"], mix.inputs[2])
+    request, _ = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+    assert request["shader_mixes"] == [{"weight": 0.5, "mixed": {"material": "Red", "node": "translucent", "color": [0.25, 0.75, 0.125]}}], request["shader_mixes"]
 
     def mixes():
         request, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
