@@ -405,7 +405,7 @@ def render_request(depsgraph, job, width, height, folder=None):
     if mixed_otherwise:
         warnings.append(f"{', '.join(mixed_otherwise)}: a Principled BSDF mixed or added with other shaders otherwise than in one Mix Shader with a constant Fac and a Diffuse, Glossy, Glass, Transparent or Translucent BSDF or an Emission shader, or an Add Shader with an Emission shader, is not rendered by Glint, which renders the Principled BSDF alone (what the exporter writes)")
     if other_surfaces:
-        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass, Transparent or Translucent BSDF or an Emission shader alone, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
+        warnings.append(f"{', '.join(other_surfaces)}: a surface without a Principled BSDF, or a Diffuse, Glossy, Glass, Transparent or Translucent BSDF or an Emission shader alone, or two of those BSDFs in a Mix Shader with a constant Fac, cannot go through glTF; Glint renders what the exporter writes (glTF's default, a white rough metal)")
     if approximate:
         warnings.append(f"{', '.join(approximate)}: Glint renders this BSDF node as the nearest Principled BSDF (a Diffuse BSDF, a Glossy BSDF white and isotropic, a Glass BSDF clear, GGX or Multiscatter GGX — in a Mix Shader, as the Principled BSDF's —, a Transparent BSDF white, a Translucent BSDF, no Normal: exact; otherwise not)")
     absorption, other_volumes = volume_absorption(depsgraph)
@@ -753,6 +753,35 @@ def shader_mix(material, node):
     return mix, exact, single_scatter
 
 
+# Plain nodes that can be the first half of a Mix Shader of two: the
+# record Glint makes the material from before it mixes in the second.
+MIX_BASES = {"diffuse", "glossy", "glass", "translucent"}
+
+
+def plain_mix(material, node):
+    """A Mix Shader with a constant Fac of two plain nodes and no Principled
+    BSDF (a Diffuse and a Glossy, the way materials were made before the
+    Principled BSDF; a Diffuse and a Translucent, a leaf), as two request
+    records: the upper node as the material (`bsdf_nodes`) and the lower
+    mixed into it by Fac (`shader_mixes`); with both nodes' exactness and
+    whether they ask for plain GGX; None for any other node. The upper one
+    must be a Diffuse, Glossy, Glass or Translucent BSDF, the lower any of
+    those or a Transparent BSDF (Emission shaders: the exporter writes
+    theirs as it likes)."""
+    if node.type != "MIX_SHADER" or node.inputs[0].is_linked or not all(s.is_linked for s in node.inputs[1:3]):
+        return None
+    halves = [plain_node(material, s.links[0].from_node) for s in node.inputs[1:3]]
+    if None in halves or halves[0][0]["node"] not in MIX_BASES or halves[1][0]["node"] not in MIX_BASES | {"transparent"}:
+        return None
+    (base, base_exact, base_ggx), (mixed, mixed_exact, mixed_ggx) = halves
+    weight = float(min(max(node.inputs[0].default_value, 0.0), 1.0))
+    # Plain GGX is the material's, both halves': exact unless two glossy
+    # halves ask for different ones.
+    glossy = {"glossy", "glass"}
+    agree = not (base["node"] in glossy and mixed["node"] in glossy and base_ggx != mixed_ggx)
+    return base, {"weight": weight, "mixed": mixed}, base_exact and mixed_exact and agree, base_ggx or mixed_ggx
+
+
 def surface_shaders(depsgraph):
     """What the exporter cannot write of surfaces: for those without a
     Principled BSDF (it writes glTF's default material, a white rough
@@ -779,6 +808,16 @@ def surface_shaders(depsgraph):
             continue
         if any(n.type == "BSDF_PRINCIPLED" for n in upstream(surface)):
             mixed_otherwise.append(m.name)
+            continue
+        pair = plain_mix(m, node)
+        if pair is not None:
+            base, mix, exact, ggx = pair
+            records.append(base)
+            mixes.append(mix)
+            if ggx:
+                single_scatter.append(m.name)
+            if not exact:
+                approximate.append(m.name)
             continue
         found = plain_node(m, node)
         if found is None:

@@ -488,3 +488,44 @@ def test_the_pixel_filter_goes_in_the_request(empty_scene):
     assert sent() == {"type": "gaussian", "width": pytest.approx(2.0)}
     empty_scene.cycles.pixel_filter_type, empty_scene.cycles.filter_width = "BOX", 3.0
     assert sent() == {"type": "box", "width": 1.0}
+
+
+def test_two_plain_nodes_mixed_go_in_the_request(empty_scene):
+    """A Mix Shader of two plain nodes, no Principled BSDF: the upper goes
+    in as the material (`bsdf_nodes`), the lower mixed in by Fac
+    (`shader_mixes`; its render: test_materials_vs_cycles.py). Plain GGX
+    asked by a Glossy half is the material's; two glossy halves asking
+    for different ones are named as approximate; an Emission half is named
+    as not rendered."""
+    build_scene(empty_scene)
+    red = bpy.data.materials["Red"]
+    nodes, links = red.node_tree.nodes, red.node_tree.links
+    output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
+    diffuse, glossy, mix = nodes.new("ShaderNodeBsdfDiffuse"), nodes.new("ShaderNodeBsdfGlossy"), nodes.new("ShaderNodeMixShader")
+    diffuse.inputs["Color"].default_value = (0.5, 0.25, 0.125, 1.0)
+    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    glossy.inputs["Roughness"].default_value = 0.25
+    mix.inputs["Fac"].default_value = 0.25
+    links.new(diffuse.outputs["BSDF"], mix.inputs[1])
+    links.new(glossy.outputs["BSDF"], mix.inputs[2])
+    links.new(mix.outputs["Shader"], output.inputs["Surface"])
+
+    def request():
+        r, warnings = export.render_request(bpy.context.evaluated_depsgraph_get(), "j", WIDTH, HEIGHT)
+        return r.get("bsdf_nodes"), r.get("shader_mixes"), r.get("single_scatter_materials"), [w.split(":")[1].strip()[:30] for w in warnings if w.startswith("Red:")]
+
+    assert request() == (
+        [{"material": "Red", "node": "diffuse", "color": [0.5, 0.25, 0.125], "roughness": 0.0}],
+        [{"weight": 0.25, "mixed": {"material": "Red", "node": "glossy", "color": [1.0, 1.0, 1.0], "roughness": 0.25}}],
+        None,
+        [],
+    ), request()
+    glossy.distribution = "GGX"
+    assert request()[2:] == (["Red"], [])
+    glass = nodes.new("ShaderNodeBsdfGlass")
+    glass.distribution = "MULTI_GGX"
+    links.new(glass.outputs["BSDF"], mix.inputs[1])
+    assert request()[2:] == (["Red"], ["Glint renders this BSDF node a"]), request()
+    emission = nodes.new("ShaderNodeEmission")
+    links.new(emission.outputs["Emission"], mix.inputs[1])
+    assert request() == (None, None, None, ["a surface without a Principled"]), request()
