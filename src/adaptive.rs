@@ -62,7 +62,10 @@ impl Adaptive {
     /// that the samples between two checks are an aligned block, which the
     /// two halves (`rng::in_first_half`) share evenly.
     pub fn next_check(&self, done: u32) -> u32 {
-        self.min_samples().max(done + 1).div_ceil(STEP) * STEP
+        // Saturating: a minimum near u32::MAX (a threshold of 1e-30, or
+        // so many Min Samples) had wrapped to 0, and a pass of no samples
+        // had left the render looping for ever.
+        self.min_samples().max(done.saturating_add(1)).div_ceil(STEP).saturating_mul(STEP)
     }
 
     /// Whether a check runs once `done` samples are in.
@@ -161,6 +164,13 @@ mod tests {
         let a = Adaptive { threshold: 0.02, min_samples: 0 };
         assert_eq!((a.min_samples(), a.next_check(0), a.next_check(64)), (52, 64, 80));
         assert!(!a.checks_at(48) && a.checks_at(64));
+        // A minimum past the last multiple of STEP: the next check is
+        // still ahead of every count done, never wrapped round to 0.
+        for a in [Adaptive { threshold: 1e-30, min_samples: 0 }, Adaptive { threshold: 0.01, min_samples: u32::MAX }] {
+            for done in [0, 1, 4096, u32::MAX - 17, u32::MAX - 1] {
+                assert!(a.next_check(done) > done, "{a:?} after {done}: {}", a.next_check(done));
+            }
+        }
     }
 
     #[test]

@@ -417,7 +417,9 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         scene.background = Vec3::ONE;
     }
     let (width, height) = resolution(options.width, options.height, scene.camera.aspect_ratio);
-    let time = options.time_limit.filter(|t| *t > 0.0).map(Duration::from_secs_f64);
+    // A limit past what a Duration holds (1e300 s) is no limit at all;
+    // `from_secs_f64` panicked on it.
+    let time = options.time_limit.filter(|t| *t > 0.0).map(|t| Duration::try_from_secs_f64(t).unwrap_or(Duration::MAX));
     let samples = match options.samples {
         Some(0) if time.is_none() => return Err(format!("{name}: samples 0 (unlimited) needs a time limit")),
         Some(n) => n,

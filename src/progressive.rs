@@ -64,7 +64,8 @@ pub fn render_progressive(
         if let Some(adaptive) = &settings.adaptive {
             pass = pass.min(adaptive.next_check(done) - done);
         }
-        pass = pass.min(target - done);
+        // At least one sample: a pass of none would loop for ever.
+        pass = pass.min(target - done).max(1);
         let stats = render_pass(ctx, settings, film, done..done + pass, cancel, progress)?;
         total.add(&stats);
         done += pass;
@@ -184,6 +185,25 @@ mod tests {
         assert!(a.counts.iter().any(|&n| n < 200), "no pixel stopped: {:?}", a.counts);
         for (p, f) in paced.mean().iter().zip(fixed.mean()) {
             assert!((*p - f).abs().max_element() <= 1e-5 * f.max_element().max(1.0), "{p} vs {f}");
+        }
+    }
+
+    /// A Noise Threshold so small (or Min Samples so many) that the first
+    /// check lies past u32's last multiple of 16: the budget's samples
+    /// still end the render, paced or not (the check's count had wrapped
+    /// to 0, and passes of no samples looped for ever).
+    #[test]
+    fn a_first_check_beyond_every_count_still_ends_at_the_budget() {
+        let scene = cornell();
+        let (ctx, _) = Context::new(&scene);
+        for adaptive in [crate::adaptive::Adaptive { threshold: 1e-30, min_samples: 0 }, crate::adaptive::Adaptive { threshold: 0.01, min_samples: u32::MAX }] {
+            for paced in [true, false] {
+                let mut film = Film::new(24, 24);
+                let budget = Budget { samples: 3, time: None, paced };
+                let settings = RenderSettings { adaptive: Some(adaptive), ..settings(3) };
+                render_progressive(&ctx, &settings, &budget, &mut film, &AtomicBool::new(false), &|_| {}, &mut |_| {}).unwrap();
+                assert_eq!(film.samples, 3, "{adaptive:?}, paced {paced}");
+            }
         }
     }
 }

@@ -358,6 +358,21 @@ fn noise_threshold_renders_adaptively_and_reproducibly() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A time limit longer than a Duration holds is no limit: the samples end
+/// the render (it had panicked converting the seconds), from the command
+/// line or a request.
+#[test]
+fn an_endless_time_limit_is_no_limit() {
+    let dir = temp_dir("endless");
+    let (exr, request) = (dir.join("out.exr"), dir.join("request.json"));
+    std::fs::write(&request, r#"{"time_limit": 1e308, "samples": 2}"#).unwrap();
+    for args in [&["--time-limit", "1e300", "--spp", "2"][..], &["--request", request.to_str().unwrap()]] {
+        let o = glint(&[&["render", "--width", "8", "--height", "8", "--stats", "-o", exr.to_str().unwrap()][..], args].concat());
+        assert!(o.status.success() && stderr(&o).contains("2 spp"), "{args:?}: {}", stderr(&o));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_missing_environment_image_is_a_one_line_error() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_glint"))
