@@ -33,10 +33,16 @@ const SAMPLES_PER_LIGHT_TRACE: u32 = 4;
 /// the pixels, at most `MAX_TRACED_PER_SAMPLE`, which bounds the splats a
 /// pass holds. On the benchmark scenes (256², 64 spp, 16 bounces, 4 seeds;
 /// s per sample, relMSE), against none: Cornell box 0.115, 0.0101 → 0.145,
-/// 0.0034; gold sphere 0.025, 0.0037 → 0.026, 0.0023. One per pixel (as
-/// bidirectional path tracing draws one per pixel sample) takes 0.22 and
-/// 0.039 s for 0.0025 and 0.0024; an eighth, 0.138 and 0.029 s for 0.0043
-/// and 0.0025.
+/// 0.0034; gold sphere 0.025, 0.0037 → 0.026, 0.0023. Measured again at
+/// 2026-12-06's code (256², 16 spp, 6–8 seeds, relMSE × seconds against
+/// a 512-spp image): Cornell box, one per pixel (as bidirectional path
+/// tracing draws one per pixel sample) 1.51e-2, a half 1.45e-2, a third
+/// 1.49e-2, a quarter 1.57e-2, an eighth 1.87e-2; gold sphere a half
+/// 1.60e-3, a third 1.56e-3, a quarter 1.59e-3, an eighth 1.76e-3, a
+/// sixteenth 1.92e-3, one subpath 3.04e-3. A quarter stays within 8% of
+/// the best on both, with the cheaper sample (gold sphere 18.2 ms against
+/// 20.4 at a half). Above 512² the cap makes it less (1920 × 1080: one
+/// pixel in 32), which these figures do not cover.
 fn traced_per_sample(w: u32, h: u32) -> u32 {
     (w * h / 4).clamp(1, MAX_TRACED_PER_SAMPLE)
 }
