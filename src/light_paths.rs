@@ -219,12 +219,20 @@ impl LightVertices {
         ((vertices as f32 / SCALE_SUBPATHS as f32).max(1.0) / CONNECTIONS as f32, rays)
     }
 
+    /// The subpaths each sample index traces: `count` for their vertices,
+    /// or with `tracing`, its n_T if more (light_tracing.rs).
+    pub fn subpaths(tracing: Option<&LightTracing>, count: u32) -> u32 {
+        tracing.map_or(count, |t| count.max(t.subpaths as u32))
+    }
+
     /// Every sample index of `samples`' vertices, from `count` subpaths
     /// each, traced in parallel; with `tracing`, each sample index traces
     /// its n_T subpaths (the first `count` of them also keep their
     /// vertices) and their vertices seen by the camera (light_tracing.rs)
     /// are returned too, by sample index, in an order fixed by the samples
-    /// alone.
+    /// alone. Only the subpaths numbered `batch` (of `subpaths`) are
+    /// traced: a caller that takes n_T in batches holds one batch's
+    /// splats at a time.
     #[allow(clippy::too_many_arguments)]
     pub fn for_samples<B: Bsdf>(
         ctx: &Context,
@@ -232,18 +240,20 @@ impl LightVertices {
         tracing: Option<&LightTracing>,
         seed: u64,
         samples: Range<u32>,
+        batch: Range<u32>,
         count: u32,
         max_depth: u32,
         mis_scale: f32,
     ) -> (Vec<Self>, Vec<Vec<Splat>>, RayCounts) {
         let max_vertex_depth = max_depth.saturating_sub(1);
-        let subpaths = tracing.map_or(count, |t| count.max(t.subpaths as u32));
-        let tasks: Vec<(u32, u32)> = samples.clone().flat_map(|s| (0..subpaths.div_ceil(BLOCK)).map(move |b| (s, b * BLOCK))).collect();
+        let batch = batch.start..batch.end.min(Self::subpaths(tracing, count));
+        let blocks = batch.len().div_ceil(BLOCK as usize).max(1);
+        let tasks: Vec<(u32, u32)> = samples.clone().flat_map(|s| batch.clone().step_by(BLOCK as usize).map(move |j0| (s, j0))).collect();
         let traced: Vec<(Vec<ConnectionVertex>, Vec<Splat>, RayCounts)> = tasks
             .into_par_iter()
             .map(|(s, j0)| {
                 let (mut vertices, mut splats, mut rays) = (Vec::new(), Vec::new(), RayCounts::default());
-                for j in j0..(j0 + BLOCK).min(subpaths) {
+                for j in j0..(j0 + BLOCK).min(batch.end) {
                     let mut rng = subpath_rng(seed, j, s as u64);
                     subpath::<B>(ctx, prepared, &mut rng, max_vertex_depth, &mut rays.bounce, &mut |v, rng, _| {
                         if j < count {
@@ -261,7 +271,6 @@ impl LightVertices {
             .map(|_| LightVertices { vertices: Vec::new(), traced: count, mis_scale, max_vertex_depth, tracing: tracing.map_or(0.0, |t| t.subpaths) })
             .collect();
         let (mut splats, mut rays) = (vec![Vec::new(); out.len()], RayCounts::default());
-        let blocks = subpaths.div_ceil(BLOCK).max(1) as usize;
         for (i, (vertices, s, r)) in traced.into_iter().enumerate() {
             out[i / blocks].vertices.extend(vertices);
             splats[i / blocks].extend(s);
@@ -826,6 +835,39 @@ mod tests {
 
     /// Two cache lines: the size the connections' random picks were
     /// measured with (README, *Speed*).
+    /// n_T traced in batches gives each sample index the splats, vertices
+    /// and rays of n_T traced at once, in the same order: a render that
+    /// takes a large image's subpaths a batch at a time (render.rs) adds
+    /// the same light, whatever the batches' edges (here across blocks).
+    #[test]
+    fn subpaths_traced_in_batches_are_those_traced_at_once() {
+        use crate::pixel_filter::PixelFilter;
+        let scene = diffuse_cornell_box(true);
+        let (ctx, _) = Context::new(&scene);
+        let prepared = crate::integrator::prepare_materials::<crate::bsdf::principled::PrincipledBsdf>(&scene);
+        let lens = scene.camera.lens(32, 32);
+        let filter = PixelFilter::default();
+        let tracing = LightTracing { lens: &lens, filter: &filter, width: 32, height: 32, subpaths: 3000.0, mis_scale: 0.7, strategies: Default::default() };
+        let trace = |batch: Range<u32>| LightVertices::for_samples::<crate::bsdf::principled::PrincipledBsdf>(&ctx, &prepared, Some(&tracing), 5, 3..5, batch, 700, 8, 0.7);
+        let (whole, whole_splats, whole_rays) = trace(0..3000);
+        let (first, mut splats, mut rays) = trace(0..1500);
+        let (rest, rest_splats, rest_rays) = trace(1500..3000);
+        rays.add(&rest_rays);
+        for (s, more) in splats.iter_mut().zip(rest_splats) {
+            s.extend(more);
+        }
+        let bits = |v: &[Vec<Splat>]| v.iter().map(|s| s.iter().map(|p| (p.pixel, p.value.to_array().map(f32::to_bits))).collect::<Vec<_>>()).collect::<Vec<_>>();
+        assert!(whole_splats.iter().all(|s| s.len() > 100), "{:?}", whole_splats.iter().map(Vec::len).collect::<Vec<_>>());
+        assert_eq!(bits(&splats), bits(&whole_splats));
+        assert_eq!((rays.bounce, rays.shadow), (whole_rays.bounce, whole_rays.shadow));
+        // Vertices come from the first 700 subpaths, all in the first batch.
+        assert!(rest.iter().all(|v| v.vertices.is_empty()));
+        for (a, b) in first.iter().zip(&whole) {
+            assert_eq!(a.vertices.len(), b.vertices.len());
+            assert!(a.vertices.iter().zip(&b.vertices).all(|(x, y)| x.p == y.p && x.alpha == y.alpha));
+        }
+    }
+
     #[test]
     fn a_connection_vertex_takes_128_bytes() {
         assert_eq!(std::mem::size_of::<ConnectionVertex>(), 128);

@@ -30,8 +30,7 @@ pub const TILE: u32 = 16;
 const SAMPLES_PER_LIGHT_TRACE: u32 = 4;
 
 /// Light subpaths per sample index that reach the camera: a quarter of
-/// the pixels, at most `MAX_TRACED_PER_SAMPLE`, which bounds the splats a
-/// pass holds. On the benchmark scenes (256², 64 spp, 16 bounces, 4 seeds;
+/// the pixels, traced `TRACED_BATCH` at a time. On the benchmark scenes (256², 64 spp, 16 bounces, 4 seeds;
 /// s per sample, relMSE), against none: Cornell box 0.115, 0.0101 → 0.145,
 /// 0.0034; gold sphere 0.025, 0.0037 → 0.026, 0.0023. Measured again at
 /// 2026-12-06's code (256², 16 spp, 6–8 seeds, relMSE × seconds against
@@ -41,12 +40,18 @@ const SAMPLES_PER_LIGHT_TRACE: u32 = 4;
 /// 1.60e-3, a third 1.56e-3, a quarter 1.59e-3, an eighth 1.76e-3, a
 /// sixteenth 1.92e-3, one subpath 3.04e-3. A quarter stays within 8% of
 /// the best on both, with the cheaper sample (gold sphere 18.2 ms against
-/// 20.4 at a half). Above 512² the cap makes it less (1920 × 1080: one
-/// pixel in 32), which these figures do not cover.
+/// 20.4 at a half). At most 65,536 had been traced, which bounded the
+/// splats a pass held: above 512² fewer than a quarter (1920 × 1080: one
+/// pixel in 32). At 1024² (8 spp, 3 seeds, against a 128–256-spp image)
+/// the quarter takes the Cornell box's relMSE × seconds from 0.381 to
+/// 0.269 and the gold sphere's from 0.0290 to 0.0237; 1920 × 1080's peak
+/// RSS 74.1 → 77.1 MiB.
 fn traced_per_sample(w: u32, h: u32) -> u32 {
-    (w * h / 4).clamp(1, MAX_TRACED_PER_SAMPLE)
+    (w * h / 4).max(1)
 }
-const MAX_TRACED_PER_SAMPLE: u32 = 65_536;
+/// Light subpaths per sample index traced at once, whose splats a pass
+/// holds (a few MB) before adding them to the image.
+const TRACED_BATCH: u32 = 65_536;
 
 /// Image size: explicit, else derived from the camera's aspect ratio.
 pub fn resolution(width: Option<u32>, height: Option<u32>, aspect: Option<f32>) -> (u32, u32) {
@@ -325,9 +330,11 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // Not every camera can be joined to a point (`Lens::joinable`).
     let traced = share(traced_per_sample(w, h), 1);
     let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then_some(LightTracing { lens: &lens, filter: &settings.pixel_filter, width: w, height: h, subpaths: traced as f32, mis_scale, strategies: settings.strategies });
+    // The first batch of each sample index's subpaths, with the vertices
+    // connections take (`per_sample` ≤ TRACED_BATCH of them).
     let trace_lights = |range: Range<u32>, mis_scale: f32| {
         let started = Instant::now();
-        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, per_sample, settings.max_depth, mis_scale);
+        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, 0..TRACED_BATCH, per_sample, settings.max_depth, mis_scale);
         (traced, started.elapsed())
     };
     // Camera rays' first hits found without the BVH where that is
@@ -387,22 +394,32 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 None => trace_lights(range.clone(), mis_scale),
             };
             let merge_started = Instant::now();
-            total.rays.add(&rays);
-            // A stopped pixel takes no sample index's light either.
-            for (k, splats) in splats.into_iter().enumerate() {
-                let s = (range.start + k as u32) as u64;
-                for splat in splats {
-                    let p = splat.pixel as usize;
-                    if let Some(active) = active {
-                        if !active[p] {
-                            continue;
+            let mut merge = |splats: Vec<Vec<crate::light_tracing::Splat>>, rays: &RayCounts| {
+                total.rays.add(rays);
+                // A stopped pixel takes no sample index's light either.
+                for (k, splats) in splats.into_iter().enumerate() {
+                    let s = (range.start + k as u32) as u64;
+                    for splat in splats {
+                        let p = splat.pixel as usize;
+                        if let Some(active) = active {
+                            if !active[p] {
+                                continue;
+                            }
+                            if in_first_half(sampler, settings.seed, p as u64, s) {
+                                pass_half[p] += splat.value;
+                            }
                         }
-                        if in_first_half(sampler, settings.seed, p as u64, s) {
-                            pass_half[p] += splat.value;
-                        }
+                        pass_sum[p] += splat.value;
                     }
-                    pass_sum[p] += splat.value;
                 }
+            };
+            merge(splats, &rays);
+            // The rest of n_T, a batch at a time, each merged in order
+            // (the image the same however many threads traced it).
+            let all = LightVertices::subpaths(tracing_for(mis_scale).as_ref(), per_sample);
+            for j0 in (TRACED_BATCH..all).step_by(TRACED_BATCH as usize) {
+                let (_, splats, rays) = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range.clone(), j0..j0 + TRACED_BATCH, per_sample, settings.max_depth, mis_scale);
+                merge(splats, &rays);
             }
             total.phases.light_subpaths += took + merge_started.elapsed();
             Some(vertices)
