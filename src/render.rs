@@ -30,11 +30,11 @@ pub const TILE: u32 = 16;
 const SAMPLES_PER_LIGHT_TRACE: u32 = 4;
 
 /// Light subpaths per sample index that reach the camera: a quarter of
-/// the pixels, traced `TRACED_BATCH` at a time. On the benchmark scenes (256², 64 spp, 16 bounces, 4 seeds;
-/// s per sample, relMSE), against none: Cornell box 0.115, 0.0101 → 0.145,
-/// 0.0034; gold sphere 0.025, 0.0037 → 0.026, 0.0023. Measured again at
-/// 2026-12-06's code (256², 16 spp, 6–8 seeds, relMSE × seconds against
-/// a 512-spp image): Cornell box, one per pixel (as bidirectional path
+/// the pixels, traced `TRACED_BATCH` at a time. On the benchmark scenes
+/// (256², 64 spp, 16 bounces, 4 seeds; s per sample, relMSE), against
+/// none: Cornell box 0.115, 0.0101 → 0.145, 0.0034; gold sphere 0.025,
+/// 0.0037 → 0.026, 0.0023. Measured again at 2026-12-06's code (256², 16
+/// spp, 6–8 seeds, relMSE × seconds against a 512-spp image): Cornell box, one per pixel (as bidirectional path
 /// tracing draws one per pixel sample) 1.51e-2, a half 1.45e-2, a third
 /// 1.49e-2, a quarter 1.57e-2, an eighth 1.87e-2; gold sphere a half
 /// 1.60e-3, a third 1.56e-3, a quarter 1.59e-3, an eighth 1.76e-3, a
@@ -330,11 +330,11 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // Not every camera can be joined to a point (`Lens::joinable`).
     let traced = share(traced_per_sample(w, h), 1);
     let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then_some(LightTracing { lens: &lens, filter: &settings.pixel_filter, width: w, height: h, subpaths: traced as f32, mis_scale, strategies: settings.strategies });
-    // The first batch of each sample index's subpaths, with the vertices
-    // connections take (`per_sample` ≤ TRACED_BATCH of them).
-    let trace_lights = |range: Range<u32>, mis_scale: f32| {
+    // One batch of each sample index's subpaths; the first holds the
+    // vertices connections take (`per_sample` ≤ TRACED_BATCH of them).
+    let trace_lights = |range: Range<u32>, batch: Range<u32>, mis_scale: f32| {
         let started = Instant::now();
-        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, 0..TRACED_BATCH, per_sample, settings.max_depth, mis_scale);
+        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale);
         (traced, started.elapsed())
     };
     // Camera rays' first hits found without the BVH where that is
@@ -375,7 +375,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         }
         let scale = LightVertices::mis_scale::<B>(ctx, &prepared, settings.seed, settings.max_depth);
         let first = samples.start..(samples.start + chunk).min(samples.end);
-        let traced = (!first.is_empty()).then(|| trace_lights(first, scale.0));
+        let traced = (!first.is_empty()).then(|| trace_lights(first, 0..TRACED_BATCH, scale.0));
         (scale, traced)
     });
     let (mis_scale, scale_rays) = mis_scale;
@@ -391,9 +391,9 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         let light_vertices = if connect {
             let ((vertices, splats, rays), took) = match first_lights.take() {
                 Some(first) => first,
-                None => trace_lights(range.clone(), mis_scale),
+                None => trace_lights(range.clone(), 0..TRACED_BATCH, mis_scale),
             };
-            let merge_started = Instant::now();
+            let rest_started = Instant::now();
             let mut merge = |splats: Vec<Vec<crate::light_tracing::Splat>>, rays: &RayCounts| {
                 total.rays.add(rays);
                 // A stopped pixel takes no sample index's light either.
@@ -418,10 +418,10 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
             // (the image the same however many threads traced it).
             let all = LightVertices::subpaths(tracing_for(mis_scale).as_ref(), per_sample);
             for j0 in (TRACED_BATCH..all).step_by(TRACED_BATCH as usize) {
-                let (_, splats, rays) = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range.clone(), j0..j0 + TRACED_BATCH, per_sample, settings.max_depth, mis_scale);
+                let ((_, splats, rays), _) = trace_lights(range.clone(), j0..j0 + TRACED_BATCH, mis_scale);
                 merge(splats, &rays);
             }
-            total.phases.light_subpaths += took + merge_started.elapsed();
+            total.phases.light_subpaths += took + rest_started.elapsed();
             Some(vertices)
         } else {
             None
