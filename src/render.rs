@@ -418,6 +418,11 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
             // (the image the same however many threads traced it).
             let all = LightVertices::subpaths(tracing_for(mis_scale).as_ref(), per_sample);
             for j0 in (TRACED_BATCH..all).step_by(TRACED_BATCH as usize) {
+                // A 4K image's are seconds of work: a cancel ends them
+                // (the tiles then find it too, and the pass is dropped).
+                if cancel.load(Ordering::Relaxed) {
+                    break;
+                }
                 let ((_, splats, rays), _) = trace_lights(range.clone(), j0..j0 + TRACED_BATCH, mis_scale);
                 merge(splats, &rays);
             }

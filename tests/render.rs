@@ -143,6 +143,13 @@ fn cancelled_pass_leaves_the_film_untouched() {
     assert!(render_pass(&ctx, &s, &mut film, 0..2, &cancel, &|_| {}).is_err());
     assert_eq!(film.samples, 0);
     assert!(film.sum.iter().all(|p| *p == Vec3::ZERO));
+    // An image whose light tracing takes two batches (600²), the first
+    // added to the pass's sums before the tiles find the cancel: none of
+    // its light is kept.
+    let mut film = Film::new(600, 600);
+    let large = RenderSettings { light_paths: LightPaths::On, mis: true, ..settings(600, 600, 2, 4, 0) };
+    assert!(render_pass(&ctx, &large, &mut film, 0..2, &cancel, &|_| {}).is_err());
+    assert!(film.samples == 0 && film.sum.iter().all(|p| *p == Vec3::ZERO));
 }
 
 #[test]
