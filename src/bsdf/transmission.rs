@@ -78,9 +78,12 @@ impl<B: Bsdf> WithGlass<B> {
         let metallic = s.metallic.clamp(0.0, 1.0);
         let t = (1.0 - metallic) * s.transmission.clamp(0.0, 1.0);
         let base_color = s.base_color.clamp(Vec3::ZERO, Vec3::ONE);
-        let glass = (t > 0.0).then(|| match s.translucent {
-            true => Transmitting::Translucent(base_color),
-            false => Transmitting::Glass(Dielectric::new(glass_eta(s), s.roughness, base_color.map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)).with_specular_tint(s.specular_tint)),
+        let glass = (t > 0.0).then(|| {
+            if s.translucent {
+                Transmitting::Translucent(base_color)
+            } else {
+                Transmitting::Glass(Dielectric::new(glass_eta(s), s.roughness, base_color.map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)).with_specular_tint(s.specular_tint))
+            }
         });
         let base = (t < 1.0).then(|| B::new(&Surface { metallic: metallic / (1.0 - t), transmission: 0.0, translucent: false, ..*s }, wo));
         WithGlass { base, glass, glass_weight: t, glass_probability: t }
