@@ -136,9 +136,9 @@ impl<'a> CameraHits<'a> {
     /// twice as many rays as triangles. The triangles of `materials`
     /// hidden from the camera are not binned, and camera rays pass them;
     /// a scene with none may give no materials.
-    #[allow(clippy::too_many_arguments)]
     /// `spread`: how far past its own pixel a pixel's samples reach (the
     /// pixel filter's radius less half a pixel; 0 for the one-pixel box).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(accel: &Accel, triangles: &'a [Triangle], materials: &[Material], lens: &Lens, width: u32, height: u32, tile: u32, samples: u32, spread: f32) -> Option<Self> {
         let rays = width as f64 * height as f64 * samples as f64;
         if accel.triangle_count() as f64 * 2.0 > rays {

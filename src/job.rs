@@ -13,7 +13,7 @@ use crate::progressive::Budget;
 use crate::render::{resolution, LightPaths, RenderSettings};
 use crate::punctual::PunctualKind;
 use crate::material::AlphaMode;
-use crate::request::{is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, DiffuseRoughness, LensRequest, LightSize, RenderRequest, ShaderMix, VolumeAbsorption};
+use crate::request::{is_radiance, is_unit_rgb, AnisotropyTangent, BsdfNode, BsdfNodeKind, CoatTint, DiffuseRoughness, LensRequest, LightSize, RenderRequest, ShaderMix, VolumeAbsorption};
 use crate::scene::{Backdrop, Scene};
 use crate::Vec3;
 use std::path::Path;
@@ -199,7 +199,7 @@ fn camera_backdrop(seen: &crate::request::CameraWorld) -> Result<Backdrop, Strin
         return EnvironmentMap::load(&env.image, env.strength, env.rotation).map(|map| Backdrop::Image(Box::new(map)));
     }
     let colour = seen.background.unwrap_or([0.0; 3]);
-    if !colour.iter().all(|c| c.is_finite() && *c >= 0.0) {
+    if !is_radiance(&colour) {
         return Err("background must be finite and ≥ 0".into());
     }
     Ok(Backdrop::Colour(Vec3::from(colour)))
@@ -276,7 +276,7 @@ fn as_node(m: &mut crate::material::Material, node: &BsdfNode) {
 fn mix_shaders(materials: &mut Vec<crate::material::Material>, mix: &ShaderMix) -> Result<(), String> {
     let node = &mix.mixed;
     check_node(node)?;
-    if !(0.0..=1.0).contains(&mix.weight) || mix.emission.is_some_and(|e| !e.iter().all(|c| c.is_finite() && *c >= 0.0)) {
+    if !(0.0..=1.0).contains(&mix.weight) || mix.emission.is_some_and(|e| !is_radiance(&e)) {
         return Err(format!("shader mix of '{}' must have a weight in [0, 1] and an emission of finite numbers ≥ 0", node.material));
     }
     let node_emission = if node.node == BsdfNodeKind::Emission { Vec3::from(node.color) * node.strength } else { Vec3::ZERO };
@@ -349,7 +349,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         return Err(format!("{name}: transparent glass's roughness threshold must be finite and ≥ 0"));
     }
     if let Some(b) = options.background {
-        if b.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+        if !is_radiance(&b) {
             return Err(format!("{name}: background must be finite and ≥ 0"));
         }
         scene.background = Vec3::from(b);
@@ -490,8 +490,8 @@ mod tests {
         }
     }
 
-    /// A request's pixel filter reaches the settings; a width that is not
-    /// outside 0.01 to 10 pixels is one line naming the file.
+    /// A request's pixel filter reaches the settings; a width outside 0.01
+    /// to 10 pixels is one line naming the file.
     #[test]
     fn the_pixel_filter_reaches_the_settings_and_a_bad_width_is_an_error() {
         use crate::pixel_filter::{FilterKind, FilterRequest};

@@ -34,8 +34,9 @@ const SAMPLES_PER_LIGHT_TRACE: u32 = 4;
 /// (256², 64 spp, 16 bounces, 4 seeds; s per sample, relMSE), against
 /// none: Cornell box 0.115, 0.0101 → 0.145, 0.0034; gold sphere 0.025,
 /// 0.0037 → 0.026, 0.0023. Measured again at 2026-12-06's code (256², 16
-/// spp, 6–8 seeds, relMSE × seconds against a 512-spp image): Cornell box, one per pixel (as bidirectional path
-/// tracing draws one per pixel sample) 1.51e-2, a half 1.45e-2, a third
+/// spp, 6–8 seeds, relMSE × seconds against a 512-spp image): Cornell
+/// box, one per pixel (as bidirectional path tracing draws one per pixel
+/// sample) 1.51e-2, a half 1.45e-2, a third
 /// 1.49e-2, a quarter 1.57e-2, an eighth 1.87e-2; gold sphere a half
 /// 1.60e-3, a third 1.56e-3, a quarter 1.59e-3, an eighth 1.76e-3, a
 /// sixteenth 1.92e-3, one subpath 3.04e-3. A quarter stays within 8% of

@@ -129,6 +129,12 @@ pub(crate) fn is_unit_rgb(c: &[f32; 3]) -> bool {
     c.iter().all(|v| (0.0..=1.0).contains(v))
 }
 
+/// Whether a radiance's channels are all finite and ≥ 0 (none NaN): what
+/// a World colour or an emission must be.
+pub(crate) fn is_radiance(c: &[f32; 3]) -> bool {
+    c.iter().all(|v| v.is_finite() && *v >= 0.0)
+}
+
 /// Largest request file read (area lights are ~300 bytes each).
 pub const MAX_REQUEST_BYTES: u64 = 16 << 20;
 
@@ -378,7 +384,7 @@ impl RenderRequest {
         if self.samples == Some(0) && self.time_limit.unwrap_or(0.0) == 0.0 {
             return Err("samples 0 (unlimited) needs a time_limit".into());
         }
-        if self.background.is_some_and(|b| b.iter().any(|c| !(c.is_finite() && *c >= 0.0))) {
+        if self.background.is_some_and(|b| !is_radiance(&b)) {
             return Err("background must be three finite numbers ≥ 0".into());
         }
         if self.environment.as_ref().is_some_and(|e| !(e.strength.is_finite() && e.strength >= 0.0 && e.rotation.is_finite())) {
