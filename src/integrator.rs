@@ -60,7 +60,7 @@ use crate::light_paths::{carries_light_paths, ConnectionVertex};
 pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights, Picked};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
-use crate::punctual::{PunctualKind, PunctualLight};
+use crate::punctual::PunctualKind;
 use crate::material::{Rays, Surface};
 use crate::media::{self, Media, Sides};
 use crate::render::{LightPaths, RenderSettings};
@@ -153,7 +153,8 @@ impl<'a> Context<'a> {
         // (Blender's Ray Visibility) until the camera's side is known; nor
         // with a light that casts no shadow, whose light samples alone
         // see through what its other strategies meet.
-        let possible = settings.mis && settings.max_depth >= 2 && self.kernel(settings).area && !self.lights.triangles.is_empty() && !self.emitters_in_media && self.features.hidden_from_rays.is_empty() && self.features.shadowless == 0;
+        let kernel = self.kernel(settings);
+        let possible = settings.mis && settings.max_depth >= 2 && (kernel.area || kernel.punctual) && self.lights.starts_subpaths(self.scene) && !self.emitters_in_media && self.features.hidden_from_rays.is_empty() && self.features.shadowless == 0;
         possible
             && match settings.light_paths {
                 LightPaths::On => true,
@@ -698,7 +699,7 @@ fn direct_light<B: Bsdf, const AREA: bool, const PUNCTUAL: bool>(ctx: &Context, 
         None => Vec3::ZERO,
         Some(LightChoice::World { probability }) => world_light(ctx, si, bsdf, wo, mis, probability, u, sides, rng, rays),
         Some(LightChoice::Area(ls)) if AREA => area_light(ctx, si, bsdf, wo, mis, chain, &ls, sides, rng, rays),
-        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, mis, &ctx.scene.punctual[index], probability, u, sides, rng, rays),
+        Some(LightChoice::Punctual { index, probability }) if PUNCTUAL => punctual_light(ctx, si, bsdf, wo, mis, chain, index, probability, u, sides, rng, rays),
         // Not in this kernel: Kernel::choose leaves a part out only when
         // the light list has none of it.
         Some(_) => Vec3::ZERO,
@@ -883,12 +884,32 @@ fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
     le * from.weight(mis, || world_pdf(ctx, from.p, from.ng, from.light_side == Vec3::ZERO, dir))
 }
 
+/// The connection's density (light_paths.rs) at camera vertex `p` for
+/// light from point light `index` arriving at cosine `cos_to_light`
+/// (`connection_density`'s for an emitter): in the measure
+/// of that light's sample, the pick's probability for one of radius 0
+/// (p_start·π·cos/(4π d²), a direction uniform over the sphere), the
+/// pick's times the density per steradian of a point of the facing disk
+/// for a sized one (p_start·π·cos/(4π² r²), a point of the sphere by area
+/// and a cosine from it). 0 for a spot or a sun, which start no subpaths.
+#[inline]
+fn point_connection_density(ctx: &Context, connect: f32, index: usize, cos_to_light: f32, p: Vec3) -> f32 {
+    if !(connect > 0.0 && cos_to_light > 0.0) {
+        return 0.0;
+    }
+    let light = &ctx.scene.punctual[index];
+    let reach = if light.size > 0.0 { std::f32::consts::PI * light.size * light.size } else { light.position.distance_squared(p) };
+    ctx.lights.point_start_probability(ctx.scene, index) * connect * cos_to_light / (4.0 * reach)
+}
+
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E
-/// from one point of it. Only light sampling reaches a punctual light, so
-/// its sample takes the whole weight; a sized one is MIS-weighted against
-/// the BSDF rays that see it (`sized_lights_seen`).
+/// from one point of it. Only light sampling and a point light's subpaths
+/// reach a light of radius 0, so its sample takes the whole weight but
+/// the connection's; a sized one is MIS-weighted against the BSDF rays
+/// that see it (`sized_lights_seen`) too.
 #[allow(clippy::too_many_arguments)]
-fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, light: &PunctualLight, probability: f32, u: Vec2, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, index: usize, probability: f32, u: Vec2, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
+    let light = &ctx.scene.punctual[index];
     let Some(inc) = light.incident(si.p, u) else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, inc.wi) else { return Vec3::ZERO };
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
@@ -901,7 +922,12 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
             return Vec3::ZERO;
         }
     }
-    let weight = if mis && inc.pdf.is_finite() { power_heuristic(probability * inc.pdf, bsdf_pdf) } else { 1.0 };
+    let weight = if !mis {
+        1.0
+    } else {
+        let q = point_connection_density(ctx, chain.toward(wi_local), index, inc.wi.dot(si.ng), si.p);
+        if inc.pdf.is_finite() { power_heuristic3(probability * inc.pdf, bsdf_pdf, q) } else { power_heuristic3(probability, 0.0, q) }
+    };
     through_medium::<B>(f * inc.irradiance * (weight * wi_local.z.abs() / probability), sides, si, inc.wi, inc.distance)
 }
 
@@ -935,7 +961,8 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min:
                 let t = if light.kind == PunctualKind::Sun { f32::INFINITY } else { (light.position - o).length() };
                 radiance *= media::transmittance(medium, t);
             }
-            l += radiance * from.weight(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf);
+            let q = point_connection_density(ctx, from.connect, index, d.dot(from.ng), from.p);
+            l += radiance * from.weight3(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf, q);
         }
     }
     l
@@ -1266,7 +1293,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let area_pdf = from.bsdf_pdf * -d.dot(si.ng) / t2;
         let after_z = z_depth.map_or(0, |z| depth - z);
         let joins = from.chain > 0.0 && area_pdf > 0.0 && carries_light_paths(&si.surface) && after_z <= max_vertex_depth;
-        let connects = AREA && z_depth.is_none() && depth + 2 <= max_depth && light_vertices.is_some() && connects_from(&si.surface);
+        let connects = (AREA || PUNCTUAL) && z_depth.is_none() && depth + 2 <= max_depth && light_vertices.is_some() && connects_from(&si.surface);
         if depth == 0 && connects && subpaths_traced > 0.0 {
             let p_camera = density.at(d.dot(si.ng).abs(), t2);
             tracing_over = if p_camera > 0.0 && p_camera.is_finite() { subpaths_traced * mis_scale / p_camera } else { 0.0 };

@@ -1,6 +1,7 @@
 //! Light vertices: the surface points y1, y2, … of short light subpaths
-//! (an emitter point y0, a cosine-weighted ray from it, then BSDF samples
-//! with Russian roulette), which a camera path's vertex z (its first that
+//! (an emitter point y0, a cosine-weighted ray from it — or a point
+//! light's start, `PointEmission` —, then BSDF samples with Russian
+//! roulette), which a camera path's vertex z (its first that
 //! is not a glossy metal or glass) connects to with shadow rays. These are
 //! bidirectional path tracing's s ≥ 2 strategies for z's t, and they reach light a surface sends on from
 //! where only the emitter sees it: the ceiling above a lamp that hangs
@@ -52,6 +53,7 @@
 
 use crate::bsdf::Bsdf;
 use crate::light_tracing::{LightTracing, Splat};
+use crate::lights::{EmissionSample, PointEmission, Start};
 use crate::integrator::{bsdf_at, bsdf_on, surface_facing, RayCounts, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL};
 use crate::scene::Scene;
 use crate::shading::Barycentric;
@@ -529,19 +531,17 @@ fn subpath_rng(seed: u64, j: u32, sample: u64) -> Rng {
     Rng::for_sample(seed ^ 0x6C69_6768_745F_7061, j as u64, sample)
 }
 
-/// Traces one subpath, handing each vertex to `vertex` as it is made.
-fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, rays: &mut u64, vertex: &mut impl FnMut(&LightVertex, &mut Rng, &mut u64)) {
-    let (u_pick, u_point) = rng.next_1d_2d();
-    let Some(mut start) = ctx.lights.sample_emission(ctx.scene, u_pick, u_point, rng.next_2d()) else { return };
-    if max_vertex_depth == 0 || !(start.density > 0.0) {
-        return;
+/// A subpath's first vertex y1 from a point of an emitting triangle.
+fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &mut Rng, rays: &mut u64) -> Option<LightVertex> {
+    if !(start.density > 0.0) {
+        return None;
     }
     let emitter = ctx.scene.material_of(start.triangle);
     if let Some(w) = B::emission_weight(emitter, start.normal.dot(start.dir)) {
         start.le *= w;
     }
     *rays += 1;
-    let Some(hit) = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng) else { return };
+    let hit = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng)?;
     let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir, rng);
     let to_prev = -start.dir;
     let cos_in = to_prev.dot(si.ng);
@@ -551,9 +551,9 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
     let light_pdf = ctx.lights.pdf_emitter(ctx.scene, start.triangle, si.p, si.ng, start.origin, hit.t * hit.t, start.normal.dot(start.dir), true);
     let alpha = start.le * (PI / start.density);
     if !(alpha.is_finite() && light_pdf > 0.0 && light_pdf.is_finite() && cos_in > 0.0) {
-        return;
+        return None;
     }
-    let mut v = LightVertex {
+    Some(LightVertex {
         hit: si,
         ns,
         to_prev,
@@ -563,6 +563,50 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         back: 1.0 / light_pdf,
         prefix: 1.0,
         to_unidirectional: 0.0,
+    })
+}
+
+/// A subpath's first vertex y1 from a point light (`PointEmission`). Its
+/// density over light sampling's at y1: the subpath's per unit area (and,
+/// sized, per steradian toward the light) over the light sample's, the
+/// pick's probability P there (times, sized, the density of the facing
+/// disk's point, `PunctualLight::seen`). A light of radius 0 is reached
+/// by no BSDF sample (`back` 0). A sized one's subpath from a point of its
+/// sphere outside the cone of the disk y1 sees is left out: the disk's
+/// light, which every other strategy renders, comes from that cone alone.
+fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &mut u64) -> Option<LightVertex> {
+    let light = &ctx.scene.punctual[start.index as usize];
+    *rays += 1;
+    let hit = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng)?;
+    let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir, rng);
+    let to_prev = -start.dir;
+    let cos_in = to_prev.dot(si.ng);
+    let pick = ctx.lights.punctual_probability(start.index as usize, si.p, si.ng, true);
+    let (generated, back) = if light.size > 0.0 {
+        let seen = light.seen(si.p, to_prev, 0.0, f32::INFINITY)?;
+        let light_pdf = pick * seen.pdf;
+        (start.probability * cos_in / (4.0 * PI * PI * light.size * light.size * light_pdf), 1.0 / light_pdf)
+    } else {
+        (start.probability * cos_in / (4.0 * PI * hit.t * hit.t * pick), 0.0)
+    };
+    if !(cos_in > 0.0 && generated > 0.0 && generated.is_finite() && back.is_finite()) {
+        return None;
+    }
+    Some(LightVertex { hit: si, ns, to_prev, alpha: start.alpha, depth: 1, generated, back, prefix: 1.0, to_unidirectional: 0.0 })
+}
+
+/// Traces one subpath, handing each vertex to `vertex` as it is made.
+fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, rays: &mut u64, vertex: &mut impl FnMut(&LightVertex, &mut Rng, &mut u64)) {
+    let (u_pick, u_point) = rng.next_1d_2d();
+    let Some(start) = ctx.lights.sample_start(ctx.scene, u_pick, u_point, rng.next_2d()) else { return };
+    if max_vertex_depth == 0 {
+        return;
+    }
+    let Some(mut v) = (match start {
+        Start::Emitter(start) => first_from_emitter::<B>(ctx, start, rng, rays),
+        Start::Point(start) => first_from_point(ctx, start, rng, rays),
+    }) else {
+        return;
     };
     let mut throughput = Vec3::ONE;
     loop {
@@ -618,7 +662,9 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
             prefix,
             to_unidirectional,
         };
-        let finite = [next.generated, next.back, next.prefix, next.to_unidirectional].iter().all(|x| x.is_finite() && *x > 0.0);
+        // `to_unidirectional` is 0 after a point light of radius 0, which
+        // no BSDF sample reaches.
+        let finite = [next.generated, next.back, next.prefix].iter().all(|x| x.is_finite() && *x > 0.0) && next.to_unidirectional.is_finite() && next.to_unidirectional >= 0.0;
         if !(finite && cos_next > 0.0 && alpha.is_finite()) {
             return;
         }

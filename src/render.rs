@@ -323,7 +323,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let (still, all) = film.convergence.as_ref().map_or((1, 1), |c| (c.active.iter().filter(|a| **a).count() as u64, c.active.len().max(1) as u64));
     let share = |n: u32, least: u32| ((n as u64 * still).div_ceil(all) as u32).max(least.min(n));
     let per_sample = share((w * h / 16).clamp(256, PER_SAMPLE), 64);
-    let connect = AREA && ctx.traces_light_paths(settings);
+    let connect = (AREA || PUNCTUAL) && ctx.traces_light_paths(settings);
     let chunk = if connect { SAMPLES_PER_LIGHT_TRACE } else { samples.len().max(1) as u32 };
     let mut total = PassStats::default();
     // Light tracing (light_tracing.rs): subpaths per sample index that

@@ -80,6 +80,14 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, z)
 }
 
+/// Uniform direction on the unit sphere; pdf = 1/(4π).
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (sin, cos) = (2.0 * std::f32::consts::PI * u.y).sin_cos();
+    Vec3::new(r * cos, r * sin, z)
+}
+
 #[inline]
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
     // Times 1/π: a division by π is not folded into a product (its

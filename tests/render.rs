@@ -586,6 +586,34 @@ fn light_paths_keep_the_image_of_a_softbox_and_lower_its_noise() {
     assert!(v_on < 0.8 * v_off, "light paths {v_on} vs without {v_off}");
 }
 
+/// A bulb (a point light) 10 cm under the ceiling of a closed box, over
+/// a glossy metal plate: light subpaths start from it (light_paths.rs,
+/// `PointEmission`), and their connections and the light they trace to
+/// the camera, MIS-weighted against its light samples and, for a sized
+/// bulb, the BSDF rays that meet it, must leave the image's expectation
+/// where camera paths alone put it — a bulb of radius 0, one of 5 cm
+/// drawn as a disk facing the point it lights (Blender's Soft Falloff),
+/// and one drawn as a sphere — and lower its noise: the ceiling the bulb
+/// lights from 10 cm, which lights the rest of the box, and the plate's
+/// caustic on it are light camera paths find by chance.
+#[test]
+fn light_paths_from_a_bulb_keep_the_image_and_lower_its_noise() {
+    use glint::punctual::{PunctualKind, PunctualLight};
+    let mut scene = closed_box(0.6, 0.0);
+    scene.materials.push(glint::material::Material { name: "plate".into(), base_color: Vec3::new(0.9, 0.6, 0.3), metallic: 1.0, roughness: 0.2, ..glint::material::Material::default() });
+    scene.triangles.extend(common::horizontal_quad(Vec3::new(0.2, 0.0, -0.4), 0.4, -0.99, true, 1));
+    let mut scene = Scene::new(scene.triangles, scene.materials, scene.camera);
+    for (size, sphere) in [(0.0, false), (0.05, false), (0.05, true)] {
+        let bulb = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(-0.3, 0.9, 0.1), direction: -Vec3::Y, intensity: Vec3::splat(2.0), size, sphere, camera_sees: false, shadowless: false };
+        scene.punctual = vec![bulb];
+        let with = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(24, 24, 64, 6, 0) };
+        let without = RenderSettings { light_paths: LightPaths::Off, ..with.clone() };
+        let what = format!("a bulb's light paths, radius {size}, sphere {sphere}");
+        let (v_on, v_off) = same_image_less_noise(&scene, &with, &without, &what);
+        assert!(v_on < 0.8 * v_off, "{what}: light paths {v_on} vs without {v_off}");
+    }
+}
+
 /// Renders `scene` twice each `with` and `without` a strategy (seeds 1–4),
 /// asserts that the strategy leaves the image's expectation where it was,
 /// and returns the variance per pixel with and without it.
@@ -628,11 +656,14 @@ fn same_image_less_noise_of(with: impl Fn(u64) -> (Vec<Vec3>, PassStats), withou
 #[test]
 fn the_light_tree_keeps_the_image_and_lowers_the_noise_of_a_lamp_hall() {
     let scene = common::lamp_hall();
-    let settings = RenderSettings { mis: true, ..common::settings(32, 32, 64, 2, 0) };
+    // Without light subpaths, whose connections (from the bulbs too) pick
+    // their vertices without the tree: the light samples alone show what
+    // the pick does.
+    let settings = RenderSettings { mis: true, light_paths: LightPaths::Off, ..common::settings(32, 32, 64, 2, 0) };
     let run = |seed: u64, by_power: bool| {
         let (img, stats, _) = common::render_prepared(&scene, &RenderSettings { seed, ..settings.clone() }, 2, |ctx| {
             assert_eq!(ctx.lights.tree_size(), 16 * 2 + 8, "a quad lamp is one light of the tree");
-            assert!(ctx.features_line(&settings).ends_with("+ light paths + light tree (40 lights)"), "{}", ctx.features_line(&settings));
+            assert!(ctx.features_line(&settings).ends_with("kernel: lambert + emitters + punctual + light tree (40 lights)"), "{}", ctx.features_line(&settings));
             if by_power {
                 ctx.lights.pick_by_power();
             }

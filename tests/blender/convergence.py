@@ -5,8 +5,9 @@ on one machine.
 
 For each comparison scene (the Cornell box, imported from scenes/ with
 Blender's glTF importer, a rough gold sphere under an area light, a hall
-of 32 area lights, and a room lit by the World through a window with a
-portal in it), it:
+of 32 area lights, a room lit by the World through a window with a
+portal in it, and the gold sphere again under a bulb: a point light of
+radius 0.1 m, whose light the gold focuses onto the floor), it:
 
 1. renders a converged reference with each renderer (--reference-spp
    samples): each renderer's noise is measured against its own converged
@@ -84,6 +85,22 @@ def gold_sphere(scene):
     add_camera(scene, (0, -5, 1.0), (math.radians(85), 0, 0))
 
 
+def gold_sphere_bulb(scene):
+    """The gold sphere lit by a bulb instead: Blender's default point light
+    (radius 0.1 m, soft falloff) of 1,000 W where the area light was. The
+    light the gold focuses onto the floor reaches a camera path only
+    where a floor point's BSDF sample meets the spot of the sphere that
+    mirrors the bulb toward it: a caustic of a small light."""
+    gold_sphere(scene)
+    key = scene.objects["Key"]
+    light = bpy.data.lights.new("Bulb", "POINT")
+    light.energy, light.shadow_soft_size = 1000.0, 0.1
+    bulb = bpy.data.objects.new("Bulb", light)
+    bulb.location = key.location
+    scene.collection.objects.link(bulb)
+    bpy.data.objects.remove(key)
+
+
 def lamp_hall(scene):
     """Many lights, few of which matter to a point: a hall 8 m wide, 42 m
     long and 3 m high (one Lambertian grey inside a box), lit by 32 square
@@ -125,7 +142,7 @@ def window_room(scene):
     room_with_a_window(scene)
 
 
-SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall, "window-room": window_room}
+SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall, "window-room": window_room, "gold-sphere-bulb": gold_sphere_bulb}
 
 
 def setup(build, size):

@@ -15,7 +15,11 @@ What carries over, and how it differs from Cycles' reading:
 - Emission Color × Strength → an `area` emitter of that radiance on both
   faces (as Cycles' emission), Blender area lights of square/rectangle shape → a
   `rectangle` emitter of radiance colour·power/(π·A), a plain World colour
-  → `constant`; Cycles' portals (area lights marked Portal) are left out:
+  → `constant`; a point light of power P and radius r → a `sphere` of
+  radiance colour·P/(4π·πr²), the same intensity P/(4π) (Cycles with Soft
+  Falloff, Blender's default, draws a disk of that radius facing the
+  point it lights: the light at distance d differs by about r²/d²), one
+  of radius 0 → a `point` of that intensity; Cycles' portals (area lights marked Portal) are left out:
   Mitsuba 3 has none, and they give no light of their own.
 - lights hidden from the camera (Blender's default): the path integrator's
   `hide_emitters`, which hides every emitter, so only where area lights
@@ -126,12 +130,26 @@ def mitsuba_mesh(name, positions, normals, bsdf, emitter):
     return shape
 
 
-def area_lights(depsgraph):
-    lights = {}
+def lights_of_type(depsgraph, kind):
+    """(object, world matrix) of each Blender light of type `kind`."""
     for instance in depsgraph.object_instances:
         obj = instance.object
-        if obj.type != "LIGHT" or obj.data.type != "AREA":
-            continue
+        if obj.type == "LIGHT" and obj.data.type == kind:
+            yield obj, np.array(instance.matrix_world)
+
+
+def emitting_shape(shape, radiance):
+    """A Mitsuba shape dict that emits `radiance` and reflects nothing."""
+    return {
+        **shape,
+        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}},
+        "emitter": {"type": "area", "radiance": {"type": "rgb", "value": radiance.tolist()}},
+    }
+
+
+def area_lights(depsgraph):
+    lights = {}
+    for obj, world in lights_of_type(depsgraph, "AREA"):
         light = obj.data
         if getattr(light.cycles, "is_portal", False):
             continue
@@ -139,18 +157,26 @@ def area_lights(depsgraph):
             raise ValueError(f"area light {obj.name}: only square and rectangle lights convert")
         sx = light.size
         sy = light.size_y if light.shape == "RECTANGLE" else light.size
-        world = np.array(instance.matrix_world)
         # Mitsuba's rectangle spans [−1, 1]² facing +Z; Blender's emits to −Z.
         local = np.diag([sx / 2, sy / 2, -1.0, 1.0])
         to_world = world @ local
         area = sx * sy * np.linalg.norm(np.cross(world[:3, 0], world[:3, 1]))
         radiance = np.array(light.color[:3]) * light.energy / (math.pi * area)
-        lights[obj.name] = {
-            "type": "rectangle",
-            "to_world": mi.ScalarTransform4f(to_world.tolist()),
-            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}},
-            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": radiance.tolist()}},
-        }
+        lights[obj.name] = emitting_shape({"type": "rectangle", "to_world": mi.ScalarTransform4f(to_world.tolist())}, radiance)
+    return lights
+
+
+def point_lights(depsgraph):
+    lights = {}
+    for obj, world in lights_of_type(depsgraph, "POINT"):
+        light = obj.data
+        centre = world[:3, 3]
+        intensity = np.array(light.color[:3]) * light.energy / (4 * math.pi)
+        r = light.shadow_soft_size
+        if r > 0:
+            lights[obj.name] = emitting_shape({"type": "sphere", "center": centre.tolist(), "radius": r}, intensity / (math.pi * r * r))
+        else:
+            lights[obj.name] = {"type": "point", "position": centre.tolist(), "intensity": {"type": "rgb", "value": intensity.tolist()}}
     return lights
 
 
@@ -181,6 +207,7 @@ def scene_dict(scene, bounces):
     for k, shape in enumerate(mesh_shapes(depsgraph)):
         d[f"mesh{k}"] = shape
     d.update(area_lights(depsgraph))
+    d.update(point_lights(depsgraph))
     world = scene.world
     if world is not None and world.use_nodes:
         bg = world.node_tree.nodes.get("Background")
