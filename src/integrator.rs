@@ -885,25 +885,25 @@ fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
 }
 
 /// The connection's density (light_paths.rs) at camera vertex `p` for
-/// light from point light `index` arriving at cosine `cos_to_light`
-/// (`connection_density`'s for an emitter): in the measure
-/// of that light's sample, the pick's probability for one of radius 0
-/// (p_start·π·cos/(4π d²), a direction uniform over the sphere), the
-/// pick's times the density per steradian of a point of the facing disk
-/// for a sized one (p_start·π·cos/(4π² r²), a point of the sphere by area
-/// and a cosine from it). 0 for a spot or a sun, which start no subpaths.
+/// light from point or spot light `index` arriving from direction
+/// `toward_light` at cosine `cos_to_light` (`connection_density`'s for an
+/// emitter), in the measure of that light's sample:
+/// p_start·π·pdf_dir·cos/d² over the pick's probability for a light of
+/// radius 0, p_start·π·pdf_dir·cos/(πr²) over the pick's times the facing
+/// disk's solid-angle density for a sized one (`PunctualLight::start`).
+/// 0 for a sun, which starts no subpaths.
 #[inline]
-fn point_connection_density(ctx: &Context, connect: f32, index: usize, cos_to_light: f32, p: Vec3) -> f32 {
+fn point_connection_density(ctx: &Context, connect: f32, index: usize, toward_light: Vec3, cos_to_light: f32, p: Vec3) -> f32 {
     if !(connect > 0.0 && cos_to_light > 0.0) {
         return 0.0;
     }
     let light = &ctx.scene.punctual[index];
     let reach = if light.size > 0.0 { std::f32::consts::PI * light.size * light.size } else { light.position.distance_squared(p) };
-    ctx.lights.point_start_probability(ctx.scene, index) * connect * cos_to_light / (4.0 * reach)
+    ctx.lights.point_start_probability(ctx.scene, index) * std::f32::consts::PI * light.start_pdf(toward_light) * connect * cos_to_light / reach
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E
-/// from one point of it. Only light sampling and a point light's subpaths
+/// from one point of it. Only light sampling and the light's subpaths
 /// reach a light of radius 0, so its sample takes the whole weight but
 /// the connection's; a sized one is MIS-weighted against the BSDF rays
 /// that see it (`sized_lights_seen`) too.
@@ -925,7 +925,7 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
     let weight = if !mis {
         1.0
     } else {
-        let q = point_connection_density(ctx, chain.toward(wi_local), index, inc.wi.dot(si.ng), si.p);
+        let q = point_connection_density(ctx, chain.toward(wi_local), index, inc.wi, inc.wi.dot(si.ng), si.p);
         if inc.pdf.is_finite() { power_heuristic3(probability * inc.pdf, bsdf_pdf, q) } else { power_heuristic3(probability, 0.0, q) }
     };
     through_medium::<B>(f * inc.irradiance * (weight * wi_local.z.abs() / probability), sides, si, inc.wi, inc.distance)
@@ -961,7 +961,7 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min:
                 let t = if light.kind == PunctualKind::Sun { f32::INFINITY } else { (light.position - o).length() };
                 radiance *= media::transmittance(medium, t);
             }
-            let q = point_connection_density(ctx, from.connect, index, d.dot(from.ng), from.p);
+            let q = point_connection_density(ctx, from.connect, index, d, d.dot(from.ng), from.p);
             l += radiance * from.weight3(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf, q);
         }
     }

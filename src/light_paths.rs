@@ -566,14 +566,16 @@ fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &m
     })
 }
 
-/// A subpath's first vertex y1 from a point light (`PointEmission`). Its
-/// density over light sampling's at y1: the subpath's per unit area (and,
-/// sized, per steradian toward the light) over the light sample's, the
-/// pick's probability P there (times, sized, the density of the facing
-/// disk's point, `PunctualLight::seen`). A light of radius 0 is reached
-/// by no BSDF sample (`back` 0). A sized one's subpath from a point of its
-/// sphere outside the cone of the disk y1 sees is left out: the disk's
-/// light, which every other strategy renders, comes from that cone alone.
+/// A subpath's first vertex y1 from a point or spot light
+/// (`PunctualLight::start`). Its density over light sampling's at y1: the
+/// subpath's per unit area (and, sized, per steradian toward the light)
+/// over the light sample's, the pick's probability P there (times, sized,
+/// the density of the facing disk's point, `PunctualLight::seen`). A light
+/// of radius 0 is reached by no BSDF sample (`back` 0). A sized one's ray
+/// that reaches y1 from outside the cone of the disk y1 sees is left out:
+/// the disk's light (Blender's Soft Falloff), which every other strategy
+/// renders, comes from that cone alone; the sphere's (Soft Falloff off)
+/// from all of it.
 fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &mut u64) -> Option<LightVertex> {
     let light = &ctx.scene.punctual[start.index as usize];
     *rays += 1;
@@ -585,9 +587,9 @@ fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &m
     let (generated, back) = if light.size > 0.0 {
         let seen = light.seen(si.p, to_prev, 0.0, f32::INFINITY)?;
         let light_pdf = pick * seen.pdf;
-        (start.probability * cos_in / (4.0 * PI * PI * light.size * light.size * light_pdf), 1.0 / light_pdf)
+        (start.probability * start.pdf_dir * cos_in / (PI * light.size * light.size * light_pdf), 1.0 / light_pdf)
     } else {
-        (start.probability * cos_in / (4.0 * PI * hit.t * hit.t * pick), 0.0)
+        (start.probability * start.pdf_dir * cos_in / (hit.t * hit.t * pick), 0.0)
     };
     if !(cos_in > 0.0 && generated > 0.0 && generated.is_finite() && back.is_finite()) {
         return None;

@@ -41,7 +41,7 @@
 use crate::bsdf::luminance;
 use crate::integrator::{offset_origin, point_on_triangle};
 use crate::material::Material;
-use crate::sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle, Distribution1D, Frame};
+use crate::sampling::{cosine_hemisphere, uniform_triangle, Distribution1D, Frame};
 use crate::shading::{self, Barycentric};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
@@ -444,32 +444,24 @@ pub struct EmissionSample {
     pub density: f32,
 }
 
-/// Where a light subpath starts from a point light (`Lights::sample_start`):
-/// its centre for one of radius 0; for a sized one, a point of the sphere
-/// of its radius, uniformly by area, and a cosine-weighted direction about
-/// the sphere's normal there. A Lambertian sphere of radiance I/(πr²) has
-/// intensity I every way, as the light has, and seen from a point it is a
-/// disk of that radiance, as the light's facing disk is (punctual.rs): the
-/// two differ only in the disk's slightly narrower cone, which the subpath
-/// leaves out (light_paths.rs).
+/// Where a light subpath starts from a point or spot light
+/// (`Lights::sample_start`, `PunctualLight::start`).
 pub struct PointEmission {
     /// Scene punctual light index.
     pub index: u32,
     pub origin: Vec3,
     pub dir: Vec3,
-    /// The subpath's throughput as it leaves, I·4π / p_pick for either
-    /// start: a direction uniform over the sphere (radius 0), or a point
-    /// by area (1/(4πr²)) and a cosine (cos/π) with radiance I/(πr²).
+    /// The subpath's throughput as it leaves: I(dir) / (p_pick · pdf_dir).
     pub alpha: Vec3,
     /// The probability of picking this light (by power among all local
-    /// lights); the subpath's density per steradian and unit area at its
-    /// first vertex y1 is this × cos_y1/(4π d²) (radius 0) or
-    /// × cos_y1/(4π² r²) (sized).
+    /// lights).
     pub probability: f32,
+    /// The solid-angle density of `dir`.
+    pub pdf_dir: f32,
 }
 
 /// The start of a light subpath: a point of an emitting triangle or a
-/// point light. Spots and suns start none.
+/// point or spot light. Suns start none.
 pub enum Start {
     Emitter(EmissionSample),
     Point(PointEmission),
@@ -883,16 +875,16 @@ impl Lights {
     }
 
     /// The probability with which `sample_start` picks punctual light
-    /// `index`: by power, where it starts subpaths (a point light), else 0.
+    /// `index`: by power (0 for a sun, which starts no subpaths).
     pub fn point_start_probability(&self, scene: &Scene, index: usize) -> f32 {
         match scene.punctual.get(index) {
-            Some(light) if light.kind == crate::punctual::PunctualKind::Point => self.distribution.probability(self.triangles.len() + index) as f32,
+            Some(light) if light.kind != crate::punctual::PunctualKind::Sun => self.distribution.probability(self.triangles.len() + index) as f32,
             _ => 0.0,
         }
     }
 
     /// Whether any light starts light subpaths: an emitting triangle or a
-    /// point light.
+    /// point or spot light.
     pub fn starts_subpaths(&self, scene: &Scene) -> bool {
         !self.distribution.is_empty() && (!self.triangles.is_empty() || (0..scene.punctual.len()).any(|i| self.point_start_probability(scene, i) > 0.0))
     }
@@ -900,8 +892,8 @@ impl Lights {
     /// The start of a light subpath (light_paths.rs): a light by power;
     /// on an emitter a point by area, a face, and a cosine-weighted
     /// direction from it (within the cone of a lamp's Spread); from a
-    /// point light as `PointEmission` says. None where the pick lands on
-    /// a spot or a sun, or the start emits nothing.
+    /// point or spot light as `PunctualLight::start` says. None where the
+    /// pick lands on a sun, or the start emits nothing.
     pub fn sample_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2) -> Option<Start> {
         if self.distribution.is_empty() {
             return None;
@@ -929,21 +921,13 @@ impl Lights {
         Some(Start::Emitter(EmissionSample { triangle, origin, normal, dir: Frame::from_normal(normal).to_world(local), le, density: self.emission_density(m) * weight }))
     }
 
-    /// `sample_start` from punctual light `index`, where it is a point light.
+    /// `sample_start` from punctual light `index`.
     fn point_start(&self, scene: &Scene, index: usize, u_point: Vec2, u_dir: Vec2) -> Option<PointEmission> {
         let light = scene.punctual.get(index)?;
         let probability = self.point_start_probability(scene, index);
-        if !(probability > 0.0) || light.intensity == Vec3::ZERO {
-            return None;
-        }
-        let alpha = light.intensity * (4.0 * std::f32::consts::PI / probability);
-        let (origin, dir) = if light.size > 0.0 {
-            let normal = uniform_sphere(u_point);
-            (light.position + normal * light.size, Frame::from_normal(normal).to_world(cosine_hemisphere(u_dir)))
-        } else {
-            (light.position, uniform_sphere(u_dir))
-        };
-        alpha.is_finite().then_some(PointEmission { index: index as u32, origin, dir, alpha, probability })
+        let start = light.start(u_point, u_dir)?;
+        let alpha = start.intensity / (probability * start.pdf_dir);
+        (alpha.is_finite() && alpha != Vec3::ZERO).then_some(PointEmission { index: index as u32, origin: start.origin, dir: start.dir, alpha, probability, pdf_dir: start.pdf_dir })
     }
 
     /// The density per steradian with which `sample`, from `p`, reaches

@@ -75,6 +75,17 @@ pub struct Incident {
     pub pdf: f32,
 }
 
+/// Where a light subpath leaves a point or spot light (`PunctualLight::start`).
+pub struct Start {
+    pub origin: Vec3,
+    /// Unit direction the subpath leaves along.
+    pub dir: Vec3,
+    /// Radiant intensity along `dir`, W·sr⁻¹ (a spot's cone applied).
+    pub intensity: Vec3,
+    /// Solid-angle density of `dir` (`start_pdf`).
+    pub pdf_dir: f32,
+}
+
 /// A sized light seen along a ray.
 pub struct Seen {
     /// Radiance towards the ray's origin, W·sr⁻¹·m⁻².
@@ -143,6 +154,36 @@ impl PunctualLight {
         };
         let cone = self.cone(wi);
         (cone > 0.0 && distance > 0.0 && irradiance.is_finite()).then(|| Incident { wi, distance, irradiance: irradiance * cone, pdf })
+    }
+
+    /// The start of a light subpath (light_paths.rs): a direction
+    /// uniform over the sphere (a point light) or in the spot's cone, and
+    /// for a sized light an origin uniform on the disk of its radius
+    /// through its centre, square to that direction. Each ray carries the
+    /// radiance I/(πr²) of a sphere of radius r: the rays that reach a
+    /// point p are those that pass within r of the centre, one per unit
+    /// of the disk, from the cone the sphere subtends at p, with density
+    /// pdf_dir·|cos_p|/(πr²) per steradian and unit area there (pdf_dir·
+    /// |cos_p|/d² per unit area from a light of radius 0). None for a sun.
+    pub fn start(&self, u_point: Vec2, u_dir: Vec2) -> Option<Start> {
+        let dir = match self.kind {
+            PunctualKind::Point => crate::sampling::uniform_sphere(u_dir),
+            PunctualKind::Spot { cos_outer, .. } => cone_sample_within(self.direction, 1.0 - cos_outer, u_dir),
+            PunctualKind::Sun => return None,
+        };
+        let origin = if self.size > 0.0 { self.position + Frame::from_normal(dir).to_world(Vec3::from((concentric_disk(u_point) * self.size).extend(0.0))) } else { self.position };
+        Some(Start { origin, dir, intensity: self.intensity * self.cone(-dir), pdf_dir: self.start_pdf(-dir) })
+    }
+
+    /// The density with which `start` leaves along −`toward_light` (a
+    /// unit direction from a point toward the light); 0 outside a spot's
+    /// cone and for a sun.
+    pub fn start_pdf(&self, toward_light: Vec3) -> f32 {
+        match self.kind {
+            PunctualKind::Point => 1.0 / (4.0 * PI),
+            PunctualKind::Spot { cos_outer, .. } if self.cone(toward_light) > 0.0 => cone_pdf(1.0 - cos_outer),
+            _ => 0.0,
+        }
     }
 
     /// The spot's attenuation for light leaving towards −`wi` (1 for
@@ -247,12 +288,17 @@ fn cone_pdf(one_minus_cos: f32) -> f32 {
 /// the cone's 1 − cosθmax.
 fn cone_sample(axis: Vec3, theta_max: f32, u: Vec2) -> (Vec3, f32) {
     let one_minus_cos = one_minus_cos(theta_max);
+    (cone_sample_within(axis, one_minus_cos, u), one_minus_cos)
+}
+
+/// `cone_sample` of the cone whose 1 − cosθmax is `one_minus_cos`.
+fn cone_sample_within(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
     // 1 − cosθ uniform in [0, 1 − cosθmax].
     let omc = u.x * one_minus_cos;
     let sin_t = (omc * (2.0 - omc)).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
     let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), 1.0 - omc);
-    (Frame::from_normal(axis).to_world(local).normalize(), one_minus_cos)
+    Frame::from_normal(axis).to_world(local).normalize()
 }
 
 #[cfg(test)]

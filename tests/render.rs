@@ -595,7 +595,8 @@ fn light_paths_keep_the_image_of_a_softbox_and_lower_its_noise() {
 /// drawn as a disk facing the point it lights (Blender's Soft Falloff),
 /// and one drawn as a sphere — and lower its noise: the ceiling the bulb
 /// lights from 10 cm, which lights the rest of the box, and the plate's
-/// caustic on it are light camera paths find by chance.
+/// caustic on it are light camera paths find by chance. The same of a
+/// spot (50°, blend 0.3) of radius 0 and 5 cm, shining down.
 #[test]
 fn light_paths_from_a_bulb_keep_the_image_and_lower_its_noise() {
     use glint::punctual::{PunctualKind, PunctualLight};
@@ -603,12 +604,13 @@ fn light_paths_from_a_bulb_keep_the_image_and_lower_its_noise() {
     scene.materials.push(glint::material::Material { name: "plate".into(), base_color: Vec3::new(0.9, 0.6, 0.3), metallic: 1.0, roughness: 0.2, ..glint::material::Material::default() });
     scene.triangles.extend(common::horizontal_quad(Vec3::new(0.2, 0.0, -0.4), 0.4, -0.99, true, 1));
     let mut scene = Scene::new(scene.triangles, scene.materials, scene.camera);
-    for (size, sphere) in [(0.0, false), (0.05, false), (0.05, true)] {
-        let bulb = PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: Vec3::new(-0.3, 0.9, 0.1), direction: -Vec3::Y, intensity: Vec3::splat(2.0), size, sphere, camera_sees: false, shadowless: false };
+    let spot = PunctualLight::spot(50f32.to_radians(), 35f32.to_radians());
+    for (kind, size, sphere) in [(PunctualKind::Point, 0.0, false), (PunctualKind::Point, 0.05, false), (PunctualKind::Point, 0.05, true), (spot, 0.0, false), (spot, 0.05, false)] {
+        let bulb = PunctualLight { name: "bulb".into(), kind, position: Vec3::new(-0.3, 0.9, 0.1), direction: -Vec3::Y, intensity: Vec3::splat(2.0), size, sphere, camera_sees: false, shadowless: false };
         scene.punctual = vec![bulb];
         let with = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(24, 24, 64, 6, 0) };
         let without = RenderSettings { light_paths: LightPaths::Off, ..with.clone() };
-        let what = format!("a bulb's light paths, radius {size}, sphere {sphere}");
+        let what = format!("a bulb's light paths, {kind:?}, radius {size}, sphere {sphere}");
         let (v_on, v_off) = same_image_less_noise(&scene, &with, &without, &what);
         assert!(v_on < 0.8 * v_off, "{what}: light paths {v_on} vs without {v_off}");
     }
