@@ -145,8 +145,8 @@ impl<'a> Context<'a> {
     }
 
     /// Whether a render connects to light subpaths (light_paths.rs): they
-    /// need emitting triangles to start from, MIS to weigh them, and room
-    /// for a connection's two scattering events.
+    /// need emitting triangles or point or spot lights to start from, MIS
+    /// to weigh them, and room for a connection's two scattering events.
     pub fn traces_light_paths(&self, settings: &RenderSettings) -> bool {
         // Not from an emitter inside an absorbing medium (media.rs), nor
         // where some rays pass surfaces: a subpath's rays have no kind

@@ -310,6 +310,10 @@ fn mix_shaders(materials: &mut Vec<crate::material::Material>, mix: &ShaderMix) 
     Ok(())
 }
 
+/// A point or spot light's radius, relative to its distance from the
+/// origin (at least 1 m), at or below which it is a point (`size_lights`).
+const POINT_RADIUS: f32 = 1e-5;
+
 /// Give the named punctual lights their Blender sizes.
 fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
     for size in sizes {
@@ -319,6 +323,12 @@ fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
         for light in scene.punctual.iter_mut().filter(|l| l.name == size.name) {
             (light.size, light.sphere) = match light.kind {
                 PunctualKind::Sun => (0.5 * size.angle, false),
+                // A radius within 1e-5 of the rounding of the light's
+                // position is a point's: a ray's test against a disk
+                // that small is the rounding's, and light subpaths that
+                // leave it would miss it (a 1e-8 m bulb lost 0.45% of
+                // the gold sphere's image with them, a 1e-30 m one 2.1%).
+                _ if size.radius <= POINT_RADIUS * light.position.abs().max_element().max(1.0) => (0.0, false),
                 _ => (size.radius, !size.soft_falloff),
             };
             (light.camera_sees, light.shadowless) = (size.visible_camera, !size.cast_shadow);

@@ -111,6 +111,13 @@ fn light_sizes_reach_the_named_lights_and_bad_ones_are_errors() {
     let find = |n: &str| job.scene.punctual.iter().find(|l| l.name == n).unwrap();
     assert_eq!((find("Lamp").size, find("Lamp").sphere), (0.25, true));
     assert_eq!((find("Sun").size, find("Sun").sphere), (0.01, false), "a sun's size is half its angle");
+    // A radius within 1e-5 of the light's distance from the origin (at
+    // least 1 m) is a point's: rounding decides a ray's test against it.
+    for (radius, kept) in [(1e-30, 0.0), (1e-8, 0.0), (1e-5, 0.0), (2e-5, 2e-5)] {
+        let sizes = [size("Lamp", radius, true, 0.0)];
+        let job = prepare(Some(&path), &JobOptions::default(), SceneExtras { light_sizes: &sizes, ..SceneExtras::default() }).unwrap();
+        assert_eq!(job.scene.punctual.iter().find(|l| l.name == "Lamp").unwrap().size, kept, "radius {radius}");
+    }
     // Without sizes the lights stay punctual.
     let job = prepare(Some(&path), &JobOptions::default(), SceneExtras::default()).unwrap();
     assert!(job.scene.punctual.iter().all(|l| l.size == 0.0));
