@@ -898,8 +898,7 @@ fn point_connection_density(ctx: &Context, connect: f32, index: usize, toward_li
         return 0.0;
     }
     let light = &ctx.scene.punctual[index];
-    let reach = if light.size > 0.0 { std::f32::consts::PI * light.size * light.size } else { light.position.distance_squared(p) };
-    ctx.lights.point_start_probability(ctx.scene, index) * std::f32::consts::PI * light.start_pdf(toward_light) * connect * cos_to_light / reach
+    ctx.lights.point_start_probability(ctx.scene, index) * std::f32::consts::PI * light.start_pdf(toward_light) * connect * cos_to_light / light.start_spread(light.position.distance_squared(p))
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E

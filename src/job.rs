@@ -323,11 +323,12 @@ fn size_lights(scene: &mut Scene, sizes: &[LightSize]) -> Result<(), String> {
         for light in scene.punctual.iter_mut().filter(|l| l.name == size.name) {
             (light.size, light.sphere) = match light.kind {
                 PunctualKind::Sun => (0.5 * size.angle, false),
-                // A radius within 1e-5 of the rounding of the light's
-                // position is a point's: a ray's test against a disk
-                // that small is the rounding's, and light subpaths that
-                // leave it would miss it (a 1e-8 m bulb lost 0.45% of
-                // the gold sphere's image with them, a 1e-30 m one 2.1%).
+                // A radius that small (about 80 times the rounding of
+                // the light's position, or less) is a point's: a ray's
+                // test against such a disk is the rounding's, and light
+                // subpaths that leave it would miss it (a 1e-8 m bulb lost
+                // 0.45% of the gold sphere's image with them, a 1e-30 m
+                // one 2.1%).
                 _ if size.radius <= POINT_RADIUS * light.position.abs().max_element().max(1.0) => (0.0, false),
                 _ => (size.radius, !size.soft_falloff),
             };

@@ -426,6 +426,7 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
     let (mut near, mut onward, mut total) = (0.0f64, 0.0f64, 0.0f64);
     let (mut emitted, mut other) = (0.0f64, 0.0f64);
     let mut bulbs_landed = Vec::new();
+    let suns: Vec<&crate::punctual::PunctualLight> = ctx.scene.punctual.iter().filter(|l| l.kind == crate::punctual::PunctualKind::Sun).collect();
     for _ in 0..NEAR_RAYS {
         let (u_pick, u_point) = rng.next_1d_2d();
         let Some(start) = ctx.lights.sample_start(ctx.scene, u_pick, u_point, rng.next_2d()) else { continue };
@@ -458,7 +459,7 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
             Start::Emitter(e) => emitters_irradiance(ctx, e, &si, hit.t),
             Start::Point(p) => bulbs_irradiance(p, &si, hit.t),
         };
-        other += suns_irradiance(ctx, &si, &mut rng);
+        other += suns_irradiance(ctx, &suns, &si, &mut rng);
     }
     near += near_bulbs(&mut bulbs_landed);
     let share = |part: f64| if total > 0.0 { (part / total) as f32 } else { 0.0 };
@@ -508,11 +509,11 @@ fn bulbs_irradiance(start: &PointEmission, si: &SurfaceHit, t: f32) -> f64 {
     (start.alpha.element_sum() / 3.0 * start.pdf_dir * cos) as f64 / (t as f64 * t as f64)
 }
 
-/// The suns' irradiance (mean over RGB) at `si`, on its side: one picked
-/// at random with its shadow ray, times their count. (Point and spot
-/// lights start subpaths: their light counts as the emitters'.)
-fn suns_irradiance(ctx: &Context, si: &SurfaceHit, rng: &mut Rng) -> f64 {
-    let suns: Vec<&crate::punctual::PunctualLight> = ctx.scene.punctual.iter().filter(|l| l.kind == crate::punctual::PunctualKind::Sun).collect();
+/// The irradiance (mean over RGB) of the scene's `suns` at `si`, on its
+/// side: one picked at random with its shadow ray, times their count.
+/// (Point and spot lights start subpaths: their light counts as the
+/// emitters'.)
+fn suns_irradiance(ctx: &Context, suns: &[&crate::punctual::PunctualLight], si: &SurfaceHit, rng: &mut Rng) -> f64 {
     let count = suns.len();
     if count == 0 {
         return 0.0;
@@ -578,6 +579,17 @@ fn subpath_rng(seed: u64, j: u32, sample: u64) -> Rng {
     Rng::for_sample(seed ^ 0x6C69_6768_745F_7061, j as u64, sample)
 }
 
+/// The first surface a subpath's ray from `origin` along `dir` meets: the
+/// hit, the surface there (`ng` facing the ray's origin), its shading
+/// normal, and the cosine of the way back.
+fn first_hit(ctx: &Context, origin: Vec3, dir: Vec3, rng: &mut Rng, rays: &mut u64) -> Option<(crate::accel::Hit, SurfaceHit, Vec3, f32)> {
+    *rays += 1;
+    let hit = ctx.intersect(origin, dir, RayKind::Bounce, rng)?;
+    let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, dir, rng);
+    let cos_in = -dir.dot(si.ng);
+    Some((hit, si, ns, cos_in))
+}
+
 /// A subpath's first vertex y1 from a point of an emitting triangle.
 fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &mut Rng, rays: &mut u64) -> Option<LightVertex> {
     if !(start.density > 0.0) {
@@ -587,11 +599,8 @@ fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &m
     if let Some(w) = B::emission_weight(emitter, start.normal.dot(start.dir)) {
         start.le *= w;
     }
-    *rays += 1;
-    let hit = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng)?;
-    let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir, rng);
+    let (hit, si, ns, cos_in) = first_hit(ctx, start.origin, start.dir, rng, rays)?;
     let to_prev = -start.dir;
-    let cos_in = to_prev.dot(si.ng);
     // Light subpaths are traced only with MIS (Context::traces_light_paths).
     // As a camera vertex's light sample would pick it here: si.ng faces
     // the light, and a vertex that transmits ends the subpath below.
@@ -625,19 +634,16 @@ fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &m
 /// from all of it.
 fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &mut u64) -> Option<LightVertex> {
     let light = &ctx.scene.punctual[start.index as usize];
-    *rays += 1;
-    let hit = ctx.intersect(start.origin, start.dir, RayKind::Bounce, rng)?;
-    let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, start.dir, rng);
+    let (hit, si, ns, cos_in) = first_hit(ctx, start.origin, start.dir, rng, rays)?;
     let to_prev = -start.dir;
-    let cos_in = to_prev.dot(si.ng);
     let pick = ctx.lights.punctual_probability(start.index as usize, si.p, si.ng, true);
-    let (generated, back) = if light.size > 0.0 {
-        let seen = light.seen(si.p, to_prev, 0.0, f32::INFINITY)?;
-        let light_pdf = pick * seen.pdf;
-        (start.probability * start.pdf_dir * cos_in / (PI * light.size * light.size * light_pdf), 1.0 / light_pdf)
+    let (light_pdf, back) = if light.size > 0.0 {
+        let light_pdf = pick * light.seen(si.p, to_prev, 0.0, f32::INFINITY)?.pdf;
+        (light_pdf, 1.0 / light_pdf)
     } else {
-        (start.probability * start.pdf_dir * cos_in / (hit.t * hit.t * pick), 0.0)
+        (pick, 0.0)
     };
+    let generated = start.probability * start.pdf_dir * cos_in / (light.start_spread(hit.t * hit.t) * light_pdf);
     if !(cos_in > 0.0 && generated > 0.0 && generated.is_finite() && back.is_finite()) {
         return None;
     }
@@ -968,8 +974,6 @@ mod tests {
         Scene::new(triangles, materials, camera)
     }
 
-    /// Two cache lines: the size the connections' random picks were
-    /// measured with (README, *Speed*).
     /// n_T traced in batches gives each sample index the splats, vertices
     /// and rays of n_T traced at once, in the same order: a render that
     /// takes a large image's subpaths a batch at a time (render.rs) adds
@@ -1003,6 +1007,8 @@ mod tests {
         }
     }
 
+    /// Two cache lines: the size the connections' random picks were
+    /// measured with (README, *Speed*).
     #[test]
     fn a_connection_vertex_takes_128_bytes() {
         assert_eq!(std::mem::size_of::<ConnectionVertex>(), 128);

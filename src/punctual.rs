@@ -175,6 +175,14 @@ impl PunctualLight {
         Some(Start { origin, dir, intensity: self.intensity * self.cone(-dir), pdf_dir: self.start_pdf(-dir) })
     }
 
+    /// What `start`'s density toward a point at squared distance `d2` is
+    /// divided by: per unit area there and steradian toward a sized light,
+    /// pdf_dir·|cos|/(πr²); per unit area from one of radius 0,
+    /// pdf_dir·|cos|/d². Light subpaths and camera paths both weigh by it.
+    pub fn start_spread(&self, d2: f32) -> f32 {
+        if self.size > 0.0 { PI * self.size * self.size } else { d2 }
+    }
+
     /// The density with which `start` leaves along −`toward_light` (a
     /// unit direction from a point toward the light); 0 outside a spot's
     /// cone and for a sun.
