@@ -163,6 +163,17 @@ impl<'a> Context<'a> {
             }
     }
 
+    /// Whether light subpaths go on through the delta lobes (glass,
+    /// mirrors) their light meets before anything else
+    /// (light_paths.rs, `DeltaStart`), and camera paths weigh the light
+    /// their BSDF samples reach through such lobes against them
+    /// (`Through`): not where glass absorbs, whose light neither side's
+    /// weights follow into the medium.
+    #[inline]
+    pub(crate) fn delta_starts(&self) -> bool {
+        self.features.absorbing == 0
+    }
+
     /// Whether light subpaths find light here that camera paths reach
     /// only by chance, the four ways known: a glossy surface that focuses
     /// light into caustics (`Features::focusing`); emitters whose light
@@ -846,6 +857,58 @@ struct Previous {
     /// What the next vertex's `Tracing` is made from: at x1 (z),
     /// n_T M / p_cam(x1); after x2, the ratio; 0 where it has no part.
     tracing: f32,
+    /// After a lobe that is not a delta, its vertex's part in the paths
+    /// this ray makes through delta lobes alone; after a delta lobe, that
+    /// of the last such vertex before it.
+    through: Option<Through>,
+}
+
+/// A camera vertex x_m (not glass) whose BSDF sample went on through
+/// delta lobes alone (glass, mirrors): light the ray then reaches from an
+/// emitter or a sized light was also made by a light subpath that went
+/// through the same lobes, with x_m its y1 (light_paths.rs,
+/// `DeltaStart`), by the connection from z to x2 (C) and, where z is x1,
+/// by light tracing (T), and not by light sampling. The weights take the
+/// ratio of their densities to the BSDF sample's as if x_m saw the light
+/// straight along its sample's direction (`connection_density` with x_m's
+/// cosine): the lobes' geometry and choices are the same both ways.
+#[derive(Clone, Copy)]
+struct Through {
+    /// x_m's BSDF pdf of the direction (solid angle).
+    bsdf_pdf: f32,
+    /// C's and T's parts of `Chain::toward` in that direction (at z = x1,
+    /// T's alone: n_T / (π p_cam(x1))).
+    connection: f32,
+    tracing: f32,
+    /// The cosine at x_m.
+    cos: f32,
+    /// The delta lobes each allows: the subpath's vertex joined (x2) or
+    /// seen (x1) lies that many scattering events deeper, within
+    /// `max_vertex_depth`.
+    connection_room: u32,
+    tracing_room: u32,
+    /// Delta lobes passed since x_m, and the refractions among them: the
+    /// subpaths leave out surfaces inside glass.
+    passed: u32,
+    refractions: u32,
+}
+
+impl Through {
+    /// `connection_density`'s `connect` and x_m's cosine and pdf for the
+    /// light reached now, None where no subpath makes the path.
+    fn parts(&self) -> Option<(f32, f32, f32)> {
+        if self.passed == 0 || self.refractions % 2 == 1 {
+            return None;
+        }
+        let c = if self.passed <= self.connection_room { self.connection } else { 0.0 };
+        let t = if self.passed <= self.tracing_room { self.tracing } else { 0.0 };
+        Some(((c * c + t * t).sqrt(), self.cos, self.bsdf_pdf))
+    }
+
+    /// Past one more delta lobe, refracted or not.
+    fn passing(self, refracted: bool) -> Self {
+        Through { passed: self.passed + 1, refractions: self.refractions + refracted as u32, ..self }
+    }
 }
 
 impl Previous {
@@ -856,6 +919,13 @@ impl Previous {
     /// after the first hit).
     fn weight(&self, mis: bool, p_light: impl FnOnce() -> f32) -> f32 {
         self.weight3(mis, p_light, 0.0)
+    }
+
+    /// `Through::parts` where this ray has passed delta lobes since a
+    /// vertex whose light subpaths could pass them too.
+    #[inline]
+    fn through_delta(&self, mis: bool) -> Option<(f32, f32, f32)> {
+        if mis && self.delta { self.through.as_ref().and_then(Through::parts) } else { None }
     }
 
     /// `weight` where a light subpath's connection, with density `q`
@@ -960,8 +1030,14 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min:
                 let t = if light.kind == PunctualKind::Sun { f32::INFINITY } else { (light.position - o).length() };
                 radiance *= media::transmittance(medium, t);
             }
-            let q = point_connection_density(ctx, from.connect, index, d, d.dot(from.ng), from.p);
-            l += radiance * from.weight3(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf, q);
+            l += radiance
+                * match from.through_delta(mis) {
+                    Some((connect, cos, bsdf_pdf)) => power_heuristic(bsdf_pdf, point_connection_density(ctx, connect, index, d, cos, from.p)),
+                    None => {
+                        let q = point_connection_density(ctx, from.connect, index, d, d.dot(from.ng), from.p);
+                        from.weight3(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf, q)
+                    }
+                };
         }
     }
     l
@@ -1024,6 +1100,9 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
     if le == Vec3::ZERO {
         return le;
     }
+    if let Some((connect, cos, bsdf_pdf)) = from.through_delta(mis) {
+        return le * power_heuristic(bsdf_pdf, connection_density(ctx, connect, triangle, cos, -cos_light));
+    }
     let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng), -cos_light);
     le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, from.light_side, from.p + d * t, t * t, cos_light, mis), q)
 }
@@ -1072,13 +1151,15 @@ fn connection<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], si:
     // and what the subpath knows beyond.
     let to_z = pdf_z * cos_y / d2 / v.generated;
     let at_y = pdf_y * v.back;
-    let (light, unidirectional) = if v.depth == 1 {
+    let (light, unidirectional) = if v.first {
         (to_z, to_z * at_y)
     } else {
         let light = to_z * at_y * v.prefix;
         (light, light * v.to_unidirectional)
     };
-    let (light, unidirectional) = (light * mis_scale, unidirectional * mis_scale);
+    // Light sampling is no strategy where y1's light came through delta
+    // lobes; the ratio still leads to the BSDF sample's.
+    let (light, unidirectional) = (if v.sampled { light * mis_scale } else { 0.0 }, unidirectional * mis_scale);
     let weight = 1.0 / (1.0 + light * light + unidirectional * unidirectional + traced * traced);
     if !(contribution * weight).is_finite() || !(weight > 0.0) {
         return Vec3::ZERO;
@@ -1167,7 +1248,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (camera.origin, camera.dir);
-    let mut from = Previous { depth: 0, p: camera.origin, ng: Vec3::ZERO, light_side: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0 };
+    let mut from = Previous { depth: 0, p: camera.origin, ng: Vec3::ZERO, light_side: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0, through: None };
+    // Whether light subpaths pass delta lobes here (`Through`).
+    let delta_starts = light_vertices.is_some() && ctx.delta_starts();
     let (mis_scale, max_vertex_depth, subpaths_traced) = light_vertices.map_or((1.0, 0, 0.0), |v| (v.mis_scale, v.max_vertex_depth, v.tracing));
     // n_T M / p_cam(x1) where light tracing (light_tracing.rs) makes the
     // paths through x1: z is x1, which needs x1 to connect.
@@ -1372,20 +1455,37 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         d = wi;
         // What the next vertex's Chain starts from; a delta lobe here is
         // one no subpath samples.
+        let parts = (joins && !s.delta).then(|| chain.parts(s.wi));
         let (chain, connect, tracing) = if s.delta {
             (0.0, 0.0, 0.0)
         } else if connects {
             // Nonzero only where z is x1, the one vertex light tracing
             // counts from.
             (1.0, 0.0, tracing_over)
-        } else if joins {
-            let (c, ratio) = chain.parts(s.wi);
+        } else if let Some((c, ratio)) = parts {
             let next = from.chain * c / chain.base;
             if next.is_finite() { (next, c * (1.0 + ratio * ratio).sqrt(), ratio) } else { (0.0, 0.0, 0.0) }
         } else {
             (0.0, 0.0, 0.0)
         };
-        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, light_side: light_side(&si, &bsdf), bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing };
+        let through = if !delta_starts {
+            None
+        } else if s.delta {
+            from.through.map(|t| t.passing(s.wi.z < 0.0))
+        } else {
+            // This vertex as the y1 of subpaths through the lobes ahead.
+            let cos = wi.dot(si.ng).abs();
+            let tracing_room = max_depth.saturating_sub(2).saturating_sub(depth);
+            if connects && depth == 0 && tracing_over > 0.0 {
+                Some(Through { bsdf_pdf: s.pdf, connection: 0.0, tracing: tracing_over / (std::f32::consts::PI * mis_scale), cos, connection_room: 0, tracing_room, passed: 0, refractions: 0 })
+            } else if let Some((c, ratio)) = parts.filter(|_| connect > 0.0) {
+                let tracing_room = if ratio > 0.0 { tracing_room } else { 0 };
+                Some(Through { bsdf_pdf: s.pdf, connection: c, tracing: c * ratio, cos, connection_room: max_vertex_depth - after_z, tracing_room, passed: 0, refractions: 0 })
+            } else {
+                None
+            }
+        };
+        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, light_side: light_side(&si, &bsdf), bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing, through };
         rays.bounce += 1;
     }
     (l, 1.0)

@@ -37,7 +37,12 @@
 //!   vertex after z.
 //!
 //! Glass and delta lobes end a subpath and a camera path's chain alike:
-//! the strategies through them stay the camera path's alone. A camera
+//! the strategies through them stay the camera path's alone — except the
+//! delta lobes a subpath meets before any other sample (`DeltaStart`):
+//! it goes on through them, so that light a glass sphere focuses onto the
+//! floor lands there in proportion to it, and a camera path's BSDF sample
+//! through the same lobes to the light weighs itself against that
+//! (integrator.rs, `Through`). A camera
 //! vertex makes `CONNECTIONS` connections, each to one vertex drawn from
 //! all of a sample index's, so each stands for 1/M of bidirectional path
 //! tracing's connections (M the mean vertices per subpath) and together
@@ -93,6 +98,12 @@ pub struct LightVertex {
     /// A BSDF sample at y1 hitting y0 against light sampling there
     /// (k ≥ 2; for y1 it depends on z).
     pub to_unidirectional: f32,
+    /// y_k is its subpath's y1: the first vertex stored, from y0 straight
+    /// or through delta lobes only (`DeltaStart`).
+    pub first: bool,
+    /// Light sampling at y1 is one of the strategies: not where y1's light
+    /// came through delta lobes, which shadow rays do not follow.
+    pub sampled: bool,
 }
 
 /// What a connection (integrator.rs) reads of a light vertex, kept in
@@ -122,6 +133,8 @@ pub struct ConnectionVertex {
     pub to_unidirectional: f32,
     pub depth: u32,
     front_face: bool,
+    pub first: bool,
+    pub sampled: bool,
 }
 
 impl ConnectionVertex {
@@ -143,6 +156,8 @@ impl ConnectionVertex {
             to_unidirectional: v.to_unidirectional,
             depth: v.depth,
             front_face: y.front_face,
+            first: v.first,
+            sampled: v.sampled,
         }
     }
 
@@ -590,8 +605,9 @@ fn first_hit(ctx: &Context, origin: Vec3, dir: Vec3, rng: &mut Rng, rays: &mut u
     Some((hit, si, ns, cos_in))
 }
 
-/// A subpath's first vertex y1 from a point of an emitting triangle.
-fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &mut Rng, rays: &mut u64) -> Option<LightVertex> {
+/// A subpath's first vertex y1 from a point of an emitting triangle, and
+/// its start's `DeltaStart`.
+fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &mut Rng, rays: &mut u64) -> Option<(LightVertex, DeltaStart)> {
     if !(start.density > 0.0) {
         return None;
     }
@@ -603,36 +619,27 @@ fn first_from_emitter<B: Bsdf>(ctx: &Context, mut start: EmissionSample, rng: &m
     let to_prev = -start.dir;
     // Light subpaths are traced only with MIS (Context::traces_light_paths).
     // As a camera vertex's light sample would pick it here: si.ng faces
-    // the light, and a vertex that transmits ends the subpath below.
+    // the light.
     let light_pdf = ctx.lights.pdf_emitter(ctx.scene, start.triangle, si.p, si.ng, start.origin, hit.t * hit.t, start.normal.dot(start.dir), true);
     let alpha = start.le * (PI / start.density);
     if !(alpha.is_finite() && light_pdf > 0.0 && light_pdf.is_finite() && cos_in > 0.0) {
         return None;
     }
-    Some(LightVertex {
-        hit: si,
-        ns,
-        to_prev,
-        alpha,
-        depth: 1,
-        generated: start.density * cos_in / (PI * light_pdf),
-        back: 1.0 / light_pdf,
-        prefix: 1.0,
-        to_unidirectional: 0.0,
-    })
+    let v = LightVertex { hit: si, ns, to_prev, alpha, depth: 1, generated: start.density * cos_in / (PI * light_pdf), back: 1.0 / light_pdf, prefix: 1.0, to_unidirectional: 0.0, first: true, sampled: true };
+    Some((v, DeltaStart { emitted: start.density / PI, reached: true, length: hit.t, refractions: 0 }))
 }
 
 /// A subpath's first vertex y1 from a point or spot light
-/// (`PunctualLight::start`). Its density over light sampling's at y1: the
-/// subpath's per unit area (and, sized, per steradian toward the light)
-/// over the light sample's, the pick's probability P there (times, sized,
-/// the density of the facing disk's point, `PunctualLight::seen`). A light
-/// of radius 0 is reached by no BSDF sample (`back` 0). A sized one's ray
-/// that reaches y1 from outside the cone of the disk y1 sees is left out:
-/// the disk's light (Blender's Soft Falloff), which every other strategy
-/// renders, comes from that cone alone; the sphere's (Soft Falloff off)
-/// from all of it.
-fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &mut u64) -> Option<LightVertex> {
+/// (`PunctualLight::start`), and its start's `DeltaStart`. Its density
+/// over light sampling's at y1: the subpath's per unit area (and, sized,
+/// per steradian toward the light) over the light sample's, the pick's
+/// probability P there (times, sized, the density of the facing disk's
+/// point, `PunctualLight::seen`). A light of radius 0 is reached by no
+/// BSDF sample (`back` 0). A sized one's ray that reaches y1 from outside
+/// the cone of the disk y1 sees is left out: the disk's light (Blender's
+/// Soft Falloff), which every other strategy renders, comes from that
+/// cone alone; the sphere's (Soft Falloff off) from all of it.
+fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &mut u64) -> Option<(LightVertex, DeltaStart)> {
     let light = &ctx.scene.punctual[start.index as usize];
     let (hit, si, ns, cos_in) = first_hit(ctx, start.origin, start.dir, rng, rays)?;
     let to_prev = -start.dir;
@@ -643,32 +650,85 @@ fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &m
     } else {
         (pick, 0.0)
     };
-    let generated = start.probability * start.pdf_dir * cos_in / (light.start_spread(hit.t * hit.t) * light_pdf);
+    let spread = light.start_spread(hit.t * hit.t);
+    let generated = start.probability * start.pdf_dir * cos_in / (spread * light_pdf);
     if !(cos_in > 0.0 && generated > 0.0 && generated.is_finite() && back.is_finite()) {
         return None;
     }
-    Some(LightVertex { hit: si, ns, to_prev, alpha: start.alpha, depth: 1, generated, back, prefix: 1.0, to_unidirectional: 0.0 })
+    let v = LightVertex { hit: si, ns, to_prev, alpha: start.alpha, depth: 1, generated, back, prefix: 1.0, to_unidirectional: 0.0, first: true, sampled: true };
+    Some((v, DeltaStart { emitted: start.probability * start.pdf_dir / spread, reached: light.size > 0.0, length: hit.t, refractions: 0 }))
+}
+
+/// A subpath that has sampled only delta lobes since its light left y0
+/// (glass, mirrors): what the first vertex it stores after them needs,
+/// made as y1 is but for two things. Light sampling does not make that
+/// vertex (shadow rays stop at glass, and do not bend), so its weights
+/// leave that strategy out (`sampled`). And the densities that make its
+/// y1 from y0 and y0 from y1 — the subpath's and a camera path's BSDF
+/// sample, through the same delta lobes — share the chain's geometry (the
+/// étendue of a beam of rays is kept through mirrors and refractions
+/// that leave the glass where they entered it) and the lobes' choices
+/// (Fresnel's, the same both ways): their ratio is y1 straight from y0's,
+/// with any reference density p_ref in light sampling's place, which
+/// cancels. The camera side's weights (integrator.rs, `Through`) take the
+/// same ratio, and agree with these on which paths qualify: an even number
+/// of refractions, and the depths.
+#[derive(Clone, Copy)]
+struct DeltaStart {
+    /// The start's density over the cosine at y1 that y1's `generated`
+    /// multiplies by the cosine and divides by light sampling's density.
+    emitted: f32,
+    /// A BSDF sample can reach the light: not a point of radius 0, whose
+    /// light through a delta lobe no camera path finds (nor Cycles'), and
+    /// whose subpaths those lobes end.
+    reached: bool,
+    /// The way from y0, and the refractions on it.
+    length: f32,
+    refractions: u32,
+}
+
+impl DeltaStart {
+    /// The vertex at the end of the delta lobes as the subpath's y1, with
+    /// p_ref = emitted·length²: the density light sampling would have
+    /// with the emitter at the far end of that way, as y1's scale.
+    fn first(&self, v: LightVertex) -> LightVertex {
+        let reference = self.emitted * self.length * self.length;
+        let cos_in = v.to_prev.dot(v.hit.ng);
+        LightVertex { generated: self.emitted * cos_in / reference, back: 1.0 / reference, prefix: 1.0, to_unidirectional: 0.0, first: true, sampled: false, ..v }
+    }
 }
 
 /// Traces one subpath, handing each vertex to `vertex` as it is made.
+/// Until the subpath's first sample that is not from a delta lobe it goes
+/// on through glass and mirrors (`DeltaStart`), where light would
+/// otherwise reach the surfaces beyond only along the camera paths' BSDF
+/// samples: a glass sphere's caustic on the floor. Glass past that ends
+/// it, as a delta lobe does.
 fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &mut Rng, max_vertex_depth: u32, rays: &mut u64, vertex: &mut impl FnMut(&LightVertex, &mut Rng, &mut u64)) {
     let (u_pick, u_point) = rng.next_1d_2d();
     let Some(start) = ctx.lights.sample_start(ctx.scene, u_pick, u_point, rng.next_2d()) else { return };
     if max_vertex_depth == 0 {
         return;
     }
-    let Some(mut v) = (match start {
+    let Some((mut v, mut delta_start)) = (match start {
         Start::Emitter(start) => first_from_emitter::<B>(ctx, start, rng, rays),
         Start::Point(start) => first_from_point(ctx, start, rng, rays),
     }) else {
         return;
     };
+    // Some(…) while every sample so far was a delta lobe's.
+    let mut through_delta = (ctx.delta_starts() && delta_start.reached).then_some(());
     let mut throughput = Vec3::ONE;
     loop {
-        if !carries_light_paths(&v.hit.surface) {
+        // A surface inside the glass (an odd number of refractions) is
+        // left out with what lies beyond it.
+        let inside = through_delta.is_some() && delta_start.refractions % 2 == 1;
+        let stored = carries_light_paths(&v.hit.surface) && !inside;
+        if stored {
+            vertex(&v, rng, rays);
+        } else if through_delta.is_none() || !(B::GLASS && v.hit.surface.transmission > 0.0) {
             return;
         }
-        vertex(&v, rng, rays);
         if v.depth >= max_vertex_depth {
             return;
         }
@@ -680,16 +740,23 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         let bsdf: B = bsdf_at(prepared, &v.hit, &frame, wo);
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { return };
         let w = frame.to_world(s.wi);
-        if s.delta || !(s.pdf > 0.0) || !same_side(&v.hit, w, s.wi) {
+        if !(s.pdf > 0.0) || !same_side(&v.hit, w, s.wi) || (s.delta && through_delta.is_none()) || !(s.delta || stored) {
             return;
         }
-        // The vertex as a camera path through it sees it: wo toward the
-        // next vertex, wi toward the light.
-        let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, &frame, s.wi).evaluate(s.wi, wo);
         // ng faces y_{k−1}.
         let cos_in = v.to_prev.dot(v.hit.ng);
         let cos_out = w.dot(v.hit.ng).abs();
-        let factor = f * (wo.z * cos_out / (cos_in * s.pdf));
+        // The vertex as a camera path through it sees it: wo toward the
+        // next vertex, wi toward the light. A delta lobe's value is its
+        // sample's (the two sides' factors of a refraction, 1/η² in and η²
+        // out, cancel over the glass).
+        let (factor, pdf_camera) = if s.delta {
+            (s.weight * (wo.z * cos_out / (s.wi.z.abs() * cos_in)), 0.0)
+        } else {
+            through_delta = None;
+            let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, &frame, s.wi).evaluate(s.wi, wo);
+            (f * (wo.z * cos_out / (cos_in * s.pdf)), pdf_camera)
+        };
         throughput *= factor;
         let mut alpha = v.alpha * factor;
         if v.depth >= RR_START_DEPTH {
@@ -705,17 +772,25 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, w, rng);
         let cos_next = -w.dot(si.ng);
         let t2 = hit.t * hit.t;
-        let (prefix, to_unidirectional) = if v.depth == 1 { (1.0, pdf_camera * v.back) } else { (v.prefix * pdf_camera * v.back, v.to_unidirectional) };
-        let next = LightVertex {
-            hit: si,
-            ns,
-            to_prev: -w,
-            alpha,
-            depth: v.depth + 1,
-            generated: s.pdf * cos_next / t2,
-            back: cos_out / (t2 * v.generated),
-            prefix,
-            to_unidirectional,
+        let next = if s.delta {
+            delta_start.length += hit.t;
+            delta_start.refractions += (s.wi.z < 0.0) as u32;
+            delta_start.first(LightVertex { hit: si, ns, to_prev: -w, alpha, depth: v.depth + 1, generated: 0.0, back: 0.0, prefix: 1.0, to_unidirectional: 0.0, first: true, sampled: false })
+        } else {
+            let (prefix, to_unidirectional) = if v.first { (1.0, pdf_camera * v.back) } else { (v.prefix * pdf_camera * v.back, v.to_unidirectional) };
+            LightVertex {
+                hit: si,
+                ns,
+                to_prev: -w,
+                alpha,
+                depth: v.depth + 1,
+                generated: s.pdf * cos_next / t2,
+                back: cos_out / (t2 * v.generated),
+                prefix,
+                to_unidirectional,
+                first: false,
+                sampled: v.sampled,
+            }
         };
         // `to_unidirectional` is 0 after a point light of radius 0, which
         // no BSDF sample reaches.

@@ -67,7 +67,7 @@ impl LightTracing<'_> {
     pub fn splat<B: Bsdf>(&self, ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], v: &LightVertex, rng: &mut Rng, rays: &mut u64, out: &mut Vec<Splat>) {
         let y = &v.hit;
         // The camera does not see a surface hidden from it.
-        if v.depth < 2 || !connects_from(&y.surface) || (ctx.features.hidden_from_camera > 0 && ctx.scene.materials[y.material as usize].hidden_from_camera) {
+        if (v.first && v.sampled) || !connects_from(&y.surface) || (ctx.features.hidden_from_camera > 0 && ctx.scene.materials[y.material as usize].hidden_from_camera) {
             return;
         }
         // A point of the aperture to see y from, where the camera has one.
@@ -138,16 +138,19 @@ impl LightTracing<'_> {
     /// the density ratio at y_k; `pdf_y` the camera-side BSDF pdf at y_k
     /// toward y_{k−1}, which with `back` makes the ratio at y_{k−1} a
     /// connection from y_k would see (light_paths.rs' `to_z`).
+    /// Where y_k is y1 through delta lobes (light_paths.rs, `DeltaStart`)
+    /// only U makes the path too: x1 = y1 joins no vertex through the
+    /// lobes, and light sampling does not see through them.
     fn others_over_this(&self, v: &LightVertex, p_camera: f32, pdf_y: f32) -> f32 {
         let c = p_camera / (self.subpaths * v.generated);
         let to_z = pdf_y * v.back;
-        let (connection, light, unidirectional) = match v.depth {
-            2 => (c / self.mis_scale, c * to_z, c * to_z * v.to_unidirectional),
-            _ => {
-                let light = c * to_z * v.prefix;
-                (c / self.mis_scale, light, light * v.to_unidirectional)
-            }
-        };
+        if v.first {
+            let unidirectional = c * to_z;
+            return unidirectional * unidirectional;
+        }
+        let light = c * to_z * v.prefix;
+        let unidirectional = light * v.to_unidirectional;
+        let (connection, light) = (c / self.mis_scale, if v.sampled { light } else { 0.0 });
         connection * connection + light * light + unidirectional * unidirectional
     }
 }

@@ -368,12 +368,18 @@ impl Material {
     /// to focus it into caustics, which light subpaths find and camera
     /// paths rarely do (light_paths.rs): a GGX lobe (metal or specular
     /// layer) whose roughness, its texture's smallest texel counted, is
-    /// below `FOCUSING_ROUGHNESS`. Not glass, where light subpaths stop.
+    /// below `FOCUSING_ROUGHNESS`; or smooth glass that does not absorb,
+    /// through which light subpaths go on from their emitter
+    /// (light_paths.rs, `DeltaStart`; rough glass ends them).
     /// `smallest_roughness_texel` gives an image's smallest G (roughness)
     /// texel; it is asked only when the factors leave the answer open, so
     /// that a caller can scan each image once (`Image::smallest`).
     pub fn focuses_light(&self, smallest_roughness_texel: impl FnOnce(u32) -> f32) -> bool {
         let textures = self.textures.as_deref();
+        let alpha = self.roughness * self.roughness;
+        if !self.lamp && self.is_transmissive() && !self.translucent && self.absorption == Vec3::ZERO && alpha * alpha <= crate::bsdf::SMOOTH_ALPHA_SQ {
+            return true;
+        }
         let somewhere_opaque = self.transmission <= 0.0 || textures.is_some_and(|t| t.transmission.is_some());
         if self.lamp || !(self.metallic > 0.0 || self.specular > 0.0) || !somewhere_opaque {
             return false;
@@ -538,7 +544,9 @@ mod tests {
         assert!(material(0.0, 0.1, 1.0).focuses_light(smallest_in(&[])), "a glossy specular layer");
         assert!(!material(1.0, 0.7, 1.0).focuses_light(smallest_in(&[])), "rough metal");
         assert!(!material(0.0, 0.0, 0.0).focuses_light(smallest_in(&[])), "Lambert (specular 0), however smooth");
-        assert!(!Material { transmission: 1.0, ..material(0.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "glass: light subpaths stop there");
+        assert!(Material { transmission: 1.0, ..material(0.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "smooth glass: light subpaths go through");
+        assert!(!Material { transmission: 1.0, ..material(0.0, 0.2, 1.0) }.focuses_light(smallest_in(&[])), "rough glass: light subpaths stop there");
+        assert!(!Material { transmission: 1.0, absorption: Vec3::ONE, ..material(0.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "absorbing glass");
         assert!(!Material { lamp: true, ..material(1.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "a lamp is not a surface");
     }
 

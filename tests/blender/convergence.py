@@ -101,6 +101,21 @@ def gold_sphere_bulb(scene):
     bpy.data.objects.remove(key)
 
 
+def glass_sphere(scene):
+    """The gold sphere's scene with a sphere of smooth clear glass (IOR
+    1.5) in its place and the area light moved behind it: the sphere
+    focuses the light into a bright caustic on the floor in front of it,
+    which a camera path finds only where a floor point's BSDF sample
+    passes through the sphere onto the light."""
+    gold_sphere(scene)
+    sphere = next(o for o in scene.objects if o.type == "MESH" and o.active_material and o.active_material.name.startswith("Gold"))
+    sphere.data.materials.clear()
+    give_principled(sphere, "Glass", Base_Color=(1.0, 1.0, 1.0, 1), Roughness=0.0, Transmission_Weight=1.0, IOR=1.5)
+    key = scene.objects["Key"]
+    key.location = (-2.0, 2.0, 3.0)
+    key.rotation_euler = (math.radians(40), 0, math.radians(225))
+
+
 def lamp_hall(scene):
     """Many lights, few of which matter to a point: a hall 8 m wide, 42 m
     long and 3 m high (one Lambertian grey inside a box), lit by 32 square
@@ -142,7 +157,7 @@ def window_room(scene):
     room_with_a_window(scene)
 
 
-SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall, "window-room": window_room, "gold-sphere-bulb": gold_sphere_bulb}
+SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall, "window-room": window_room, "gold-sphere-bulb": gold_sphere_bulb, "glass-sphere": glass_sphere}
 
 
 def setup(build, size):

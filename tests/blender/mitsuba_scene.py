@@ -8,10 +8,13 @@ What carries over, and how it differs from Cycles' reading:
   metallic ≥ 0.5 → `roughconductor` (GGX, α = roughness², reflectance =
   base colour with Fresnel 1: Cycles' Schlick-like F82 rises to white at
   grazing angles, this does not); Specular IOR Level 0 → `diffuse`;
-  otherwise Mitsuba's `principled` (Disney's: its diffuse has a retro-
-  reflection term Cycles 4 dropped; `roughplastic`, the faster model, was
-  46% darker on the Cornell box, its coat's internal reflections and 1/η²
-  taking what Cycles' energy-conserving layer keeps);
+  Transmission Weight ≥ 0.5 → `dielectric` (smooth) or `roughdielectric`
+  (GGX) of its IOR, its transmittance √base colour at each crossing (as
+  Cycles tints); otherwise Mitsuba's `principled` (Disney's: its diffuse
+  has a retro-reflection term Cycles 4 dropped; `roughplastic`, the
+  faster model, was 46% darker on the Cornell box, its coat's internal
+  reflections and 1/η² taking what Cycles' energy-conserving layer
+  keeps);
 - Emission Color × Strength → an `area` emitter of that radiance on both
   faces (as Cycles' emission), Blender area lights of square/rectangle shape → a
   `rectangle` emitter of radiance colour·power/(π·A), a plain World colour
@@ -48,9 +51,24 @@ def principled_inputs(material):
     return tuple(i["Base Color"].default_value[:3]), i["Metallic"].default_value, i["Roughness"].default_value, i["Specular IOR Level"].default_value, tuple(emission)
 
 
-def bsdf_dict(inputs):
-    """The BSDF for a material's `principled_inputs`: Cycles shades both
-    faces of a surface; Mitsuba's models, one."""
+def glass_inputs(material):
+    """Transmission Weight and IOR of a material's Principled BSDF."""
+    bsdf = next((n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None) if material and material.use_nodes else None
+    if bsdf is None:
+        return 0.0, 1.5
+    return bsdf.inputs["Transmission Weight"].default_value, bsdf.inputs["IOR"].default_value
+
+
+def bsdf_dict(inputs, glass=(0.0, 1.5)):
+    """The BSDF for a material's `principled_inputs` and `glass_inputs`:
+    Cycles shades both faces of a surface; Mitsuba's models, one (its
+    dielectrics, both)."""
+    (transmission, ior), (base, _, roughness) = glass, inputs[:3]
+    if transmission >= 0.5:
+        tint = {"type": "rgb", "value": [math.sqrt(c) for c in base]}
+        if roughness * roughness < 1e-3:
+            return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
+        return {"type": "roughdielectric", "distribution": "ggx", "alpha": roughness * roughness, "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
     return {"type": "twosided", "bsdf": one_sided_bsdf(*inputs[:4])}
 
 
@@ -97,7 +115,7 @@ def mesh_shapes(depsgraph):
             inputs = principled_inputs(material)
             emission = inputs[4]
             emitter = {"type": "area", "radiance": {"type": "rgb", "value": list(emission)}} if max(emission) > 0 else None
-            shapes.append(mitsuba_mesh(f"{obj.name}-{slot}", p[pick], nn[pick], bsdf_dict(inputs), emitter))
+            shapes.append(mitsuba_mesh(f"{obj.name}-{slot}", p[pick], nn[pick], bsdf_dict(inputs, glass_inputs(material)), emitter))
             if emitter:
                 # Cycles' emission lights both faces (the add-on tells Glint
                 # so); Mitsuba's area emitter, the front: a reversed copy
