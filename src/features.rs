@@ -63,6 +63,10 @@ pub struct Features {
     /// (`Material::focuses_light`): one of the two things that make light
     /// subpaths pay (`Context::light_paths_pay`).
     pub focusing: bool,
+    /// Some surface may sample a delta lobe (`Material::may_be_smooth`):
+    /// only then do light subpaths and camera paths go on through them
+    /// (`Context::delta_starts`).
+    pub delta_lobes: bool,
     /// Emitting surface materials and their triangles (lamps excluded).
     pub emitters: usize,
     pub emitter_triangles: usize,
@@ -178,6 +182,7 @@ impl Features {
             f.translucent += (m.is_transmissive() && m.translucent) as usize;
             f.absorbing += crate::media::absorbs(m) as usize;
             f.coat += m.is_coated() as usize;
+            f.delta_lobes |= m.may_be_smooth();
             f.anisotropic += (m.anisotropy > 0.0) as usize;
             f.rough_diffuse += (m.metallic < 1.0 && crate::bsdf::oren_nayar::OrenNayar::new(m.diffuse_roughness, m.base_color).is_some()) as usize;
             f.hidden_from_camera += m.hidden_from_camera as usize;
@@ -199,7 +204,7 @@ impl Features {
 
 impl fmt::Display for Features {
     fn fmt(&self, out: &mut fmt::Formatter) -> fmt::Result {
-        let flags = [(self.diffuse, "diffuse"), (self.ggx, "ggx"), (self.metallic, "metallic"), (self.focusing, "focusing")];
+        let flags = [(self.diffuse, "diffuse"), (self.ggx, "ggx"), (self.metallic, "metallic"), (self.focusing, "focusing"), (self.delta_lobes, "smooth")];
         let mut on: Vec<String> = flags.iter().filter(|(b, _)| *b).map(|(_, n)| n.to_string()).collect();
         if self.emitters > 0 {
             on.push(format!("emitters={} ({} tris)", self.emitters, self.emitter_triangles));

@@ -167,11 +167,12 @@ impl<'a> Context<'a> {
     /// mirrors) their light meets before anything else
     /// (light_paths.rs, `DeltaStart`), and camera paths weigh the light
     /// their BSDF samples reach through such lobes against them
-    /// (`Through`): not where glass absorbs, whose light neither side's
-    /// weights follow into the medium.
+    /// (`Through`): where some surface may have a delta lobe, and not
+    /// where glass absorbs, whose light neither side's weights follow
+    /// into the medium.
     #[inline]
     pub(crate) fn delta_starts(&self) -> bool {
-        self.features.absorbing == 0
+        self.features.delta_lobes && self.features.absorbing == 0
     }
 
     /// Whether light subpaths find light here that camera paths reach
@@ -857,10 +858,6 @@ struct Previous {
     /// What the next vertex's `Tracing` is made from: at x1 (z),
     /// n_T M / p_cam(x1); after x2, the ratio; 0 where it has no part.
     tracing: f32,
-    /// After a lobe that is not a delta, its vertex's part in the paths
-    /// this ray makes through delta lobes alone; after a delta lobe, that
-    /// of the last such vertex before it.
-    through: Option<Through>,
 }
 
 /// A camera vertex x_m (not glass) whose BSDF sample went on through
@@ -893,21 +890,62 @@ struct Through {
     refractions: u32,
 }
 
+/// What the weight of light reached through delta lobes needs of x_m
+/// (`Through::seen`).
+#[derive(Clone, Copy)]
+struct SeenThrough {
+    /// `connection_density`'s `connect` for x_m's direction.
+    connect: f32,
+    /// The cosine there, and the BSDF sample's pdf.
+    cos: f32,
+    bsdf_pdf: f32,
+}
+
+impl SeenThrough {
+    /// The BSDF sample's weight against the subpaths' density `q` (in
+    /// light sampling's measure at x_m).
+    #[inline]
+    fn weight(&self, q: f32) -> f32 {
+        power_heuristic(self.bsdf_pdf, q)
+    }
+}
+
 impl Through {
-    /// `connection_density`'s `connect` and x_m's cosine and pdf for the
-    /// light reached now, None where no subpath makes the path.
-    fn parts(&self) -> Option<(f32, f32, f32)> {
+    /// What weighs light reached now, None where no subpath makes the
+    /// path.
+    fn seen(&self) -> Option<SeenThrough> {
         if self.passed == 0 || self.refractions % 2 == 1 {
             return None;
         }
         let c = if self.passed <= self.connection_room { self.connection } else { 0.0 };
         let t = if self.passed <= self.tracing_room { self.tracing } else { 0.0 };
-        Some(((c * c + t * t).sqrt(), self.cos, self.bsdf_pdf))
+        Some(SeenThrough { connect: (c * c + t * t).sqrt(), cos: self.cos, bsdf_pdf: self.bsdf_pdf })
     }
 
     /// Past one more delta lobe, refracted or not.
     fn passing(self, refracted: bool) -> Self {
         Through { passed: self.passed + 1, refractions: self.refractions + refracted as u32, ..self }
+    }
+}
+
+/// `Through` for the ray a camera vertex sends with sample `s` (`cos` its
+/// cosine there): passed on past a delta lobe; from a vertex that could
+/// be a subpath's y1 beyond delta lobes — z = x1 (`at_x1`, light tracing's
+/// part `tracing_x1`) or a vertex with `Chain::parts` `parts` —, started;
+/// else none. `tracing_room` and `connection_room` as `Through` keeps
+/// them. Out of line: scenes without delta lobes never call it, and
+/// inlined into `radiance` it had cost them 1.3% of its instructions.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn next_through(through: Option<Through>, s: &BsdfSample, cos: f32, at_x1: bool, parts: Option<(f32, f32)>, tracing_x1: f32, tracing_room: u32, connection_room: u32) -> Option<Through> {
+    if s.delta {
+        return through.map(|t| t.passing(s.wi.z < 0.0));
+    }
+    let start = Through { bsdf_pdf: s.pdf, connection: 0.0, tracing: 0.0, cos, connection_room: 0, tracing_room, passed: 0, refractions: 0 };
+    if at_x1 {
+        Some(Through { tracing: tracing_x1, ..start })
+    } else {
+        parts.map(|(c, ratio)| Through { connection: c, tracing: c * ratio, connection_room, tracing_room: if ratio > 0.0 { tracing_room } else { 0 }, ..start })
     }
 }
 
@@ -919,13 +957,6 @@ impl Previous {
     /// after the first hit).
     fn weight(&self, mis: bool, p_light: impl FnOnce() -> f32) -> f32 {
         self.weight3(mis, p_light, 0.0)
-    }
-
-    /// `Through::parts` where this ray has passed delta lobes since a
-    /// vertex whose light subpaths could pass them too.
-    #[inline]
-    fn through_delta(&self, mis: bool) -> Option<(f32, f32, f32)> {
-        if mis && self.delta { self.through.as_ref().and_then(Through::parts) } else { None }
     }
 
     /// `weight` where a light subpath's connection, with density `q`
@@ -1006,7 +1037,7 @@ fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, m
 /// or `reach` (a camera ray's Clip Start and End); a camera ray only those
 /// the camera sees (Blender hides lights from it by default).
 #[allow(clippy::too_many_arguments)]
-fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min: f32, reach: f32, from: &Previous, mis: bool, medium: Vec3) -> Vec3 {
+fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min: f32, reach: f32, from: &Previous, through: Option<SeenThrough>, mis: bool, medium: Vec3) -> Vec3 {
     if from.depth > 0 && !mis {
         return Vec3::ZERO;
     }
@@ -1031,8 +1062,8 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min:
                 radiance *= media::transmittance(medium, t);
             }
             l += radiance
-                * match from.through_delta(mis) {
-                    Some((connect, cos, bsdf_pdf)) => power_heuristic(bsdf_pdf, point_connection_density(ctx, connect, index, d, cos, from.p)),
+                * match through {
+                    Some(x) => x.weight(point_connection_density(ctx, x.connect, index, d, x.cos, from.p)),
                     None => {
                         let q = point_connection_density(ctx, from.connect, index, d, d.dot(from.ng), from.p);
                         from.weight3(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf, q)
@@ -1096,12 +1127,13 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
 /// Emission `le` of emitting triangle `triangle` seen by a ray at distance
 /// `t`, cosine `cos_light` at the emitter.
 /// `d` the ray's direction.
-fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_light: f32, from: &Previous, mis: bool) -> Vec3 {
+#[allow(clippy::too_many_arguments)]
+fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_light: f32, from: &Previous, through: Option<SeenThrough>, mis: bool) -> Vec3 {
     if le == Vec3::ZERO {
         return le;
     }
-    if let Some((connect, cos, bsdf_pdf)) = from.through_delta(mis) {
-        return le * power_heuristic(bsdf_pdf, connection_density(ctx, connect, triangle, cos, -cos_light));
+    if let Some(x) = through {
+        return le * x.weight(connection_density(ctx, x.connect, triangle, x.cos, -cos_light));
     }
     let q = connection_density(ctx, from.connect, triangle, d.dot(from.ng), -cos_light);
     le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, from.light_side, from.p + d * t, t * t, cos_light, mis), q)
@@ -1248,9 +1280,14 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (camera.origin, camera.dir);
-    let mut from = Previous { depth: 0, p: camera.origin, ng: Vec3::ZERO, light_side: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0, through: None };
-    // Whether light subpaths pass delta lobes here (`Through`).
+    let mut from = Previous { depth: 0, p: camera.origin, ng: Vec3::ZERO, light_side: Vec3::ZERO, bsdf_pdf: 0.0, delta: false, connect: 0.0, chain: 0.0, area_pdf: 0.0, tracing: 0.0 };
+    // Whether light subpaths pass delta lobes here, and after a lobe that
+    // is not a delta, its vertex's part in the paths the ray makes through
+    // delta lobes alone; after a delta lobe, that of the last such vertex
+    // before it (`Through`). Kept beside `from`, which it would make a
+    // third larger in every scene.
     let delta_starts = light_vertices.is_some() && ctx.delta_starts();
+    let mut through: Option<Through> = None;
     let (mis_scale, max_vertex_depth, subpaths_traced) = light_vertices.map_or((1.0, 0, 0.0), |v| (v.mis_scale, v.max_vertex_depth, v.tracing));
     // n_T M / p_cam(x1) where light tracing (light_tracing.rs) makes the
     // paths through x1: z is x1, which needs x1 to connect.
@@ -1288,6 +1325,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // Whether what this ray reaches counts (strategies.rs): the
         // camera's own, or a BSDF sample's after `depth` bounces.
         let seen_kept = settings.strategies.keeps(if depth == 0 { Strategy::Camera } else { Strategy::Bsdf }, depth);
+        let seen_through = if settings.mis && from.delta { through.as_ref().and_then(Through::seen) } else { None };
         // A camera ray sees only what lies between Clip Start and End.
         let (skip, reach) = if depth == 0 { (camera.tmin, camera.tmax) } else { (0.0, f32::INFINITY) };
         let hit = match (depth, first) {
@@ -1325,11 +1363,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             if (depth > 0 || material.camera_sees_lamp) && seen_kept {
                 let cos_light = tri.cross().normalize().dot(d);
                 let le = material.emitted(cos_light < 0.0) * material.spread_factor(-cos_light);
-                l += absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, settings.mis);
+                l += absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, seen_through, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
-            l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, settings.mis, if absorbing { media.sigma } else { Vec3::ZERO });
+            l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, seen_through, settings.mis, if absorbing { media.sigma } else { Vec3::ZERO });
         }
         let Some(hit) = hit else {
             // Film › Transparent: the camera does not see the World (it
@@ -1361,7 +1399,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
                 le *= w;
             }
-            l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, settings.mis);
+            l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, seen_through, settings.mis);
         }
         if depth == max_depth {
             break;
@@ -1455,37 +1493,28 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         d = wi;
         // What the next vertex's Chain starts from; a delta lobe here is
         // one no subpath samples.
-        let parts = (joins && !s.delta).then(|| chain.parts(s.wi));
+        // The vertex's `Chain::parts` toward the sample, for `Through`.
+        let mut parts = None;
         let (chain, connect, tracing) = if s.delta {
             (0.0, 0.0, 0.0)
         } else if connects {
             // Nonzero only where z is x1, the one vertex light tracing
             // counts from.
             (1.0, 0.0, tracing_over)
-        } else if let Some((c, ratio)) = parts {
+        } else if joins {
+            let (c, ratio) = chain.parts(s.wi);
+            if delta_starts {
+                parts = Some((c, ratio));
+            }
             let next = from.chain * c / chain.base;
             if next.is_finite() { (next, c * (1.0 + ratio * ratio).sqrt(), ratio) } else { (0.0, 0.0, 0.0) }
         } else {
             (0.0, 0.0, 0.0)
         };
-        let through = if !delta_starts {
-            None
-        } else if s.delta {
-            from.through.map(|t| t.passing(s.wi.z < 0.0))
-        } else {
-            // This vertex as the y1 of subpaths through the lobes ahead.
-            let cos = wi.dot(si.ng).abs();
-            let tracing_room = max_depth.saturating_sub(2).saturating_sub(depth);
-            if connects && depth == 0 && tracing_over > 0.0 {
-                Some(Through { bsdf_pdf: s.pdf, connection: 0.0, tracing: tracing_over / (std::f32::consts::PI * mis_scale), cos, connection_room: 0, tracing_room, passed: 0, refractions: 0 })
-            } else if let Some((c, ratio)) = parts.filter(|_| connect > 0.0) {
-                let tracing_room = if ratio > 0.0 { tracing_room } else { 0 };
-                Some(Through { bsdf_pdf: s.pdf, connection: c, tracing: c * ratio, cos, connection_room: max_vertex_depth - after_z, tracing_room, passed: 0, refractions: 0 })
-            } else {
-                None
-            }
-        };
-        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, light_side: light_side(&si, &bsdf), bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing, through };
+        if delta_starts {
+            through = next_through(through, &s, wi.dot(si.ng).abs(), connects && depth == 0 && tracing_over > 0.0, parts.filter(|_| connect > 0.0), tracing_over / (std::f32::consts::PI * mis_scale), max_depth.saturating_sub(2).saturating_sub(depth), max_vertex_depth.saturating_sub(after_z));
+        }
+        from = Previous { depth: depth + 1, p: si.p, ng: si.ng, light_side: light_side(&si, &bsdf), bsdf_pdf: s.pdf, delta: s.delta, connect, chain, area_pdf, tracing };
         rays.bounce += 1;
     }
     (l, 1.0)

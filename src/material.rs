@@ -391,6 +391,15 @@ impl Material {
         smallest_roughness < FOCUSING_ROUGHNESS
     }
 
+    /// Whether some lobe of it may be smooth enough to be a delta (α² ≤
+    /// `SMOOTH_ALPHA_SQ`, α = roughness²): its roughness or its coat's, or
+    /// a roughness texture's texel of 0.
+    pub fn may_be_smooth(&self) -> bool {
+        let smooth = |roughness: f32| (roughness * roughness).powi(2) <= crate::bsdf::SMOOTH_ALPHA_SQ;
+        let textures = self.textures.as_deref();
+        smooth(self.roughness) || textures.is_some_and(|t| t.metallic_roughness.is_some()) || (self.is_coated() && (smooth(self.coat_roughness) || textures.is_some_and(|t| t.coat_roughness.is_some())))
+    }
+
     /// Whether a clear coat lies over it.
     pub fn is_coated(&self) -> bool {
         self.coat > 0.0
