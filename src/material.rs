@@ -559,6 +559,19 @@ mod tests {
         assert!(!Material { lamp: true, ..material(1.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "a lamp is not a surface");
     }
 
+    /// Which materials may sample a delta lobe (features' `smooth`): the
+    /// rule is the lobes' own, α² ≤ SMOOTH_ALPHA_SQ with α = roughness².
+    #[test]
+    fn a_surface_may_be_smooth_by_its_roughness_its_coat_or_a_texture() {
+        assert!(material(1.0, 0.0, 1.0).may_be_smooth(), "a mirror");
+        assert!(material(0.0, 0.003, 1.0).may_be_smooth(), "roughness 0.003: α² = 8e-11");
+        assert!(!material(0.0, 0.005, 1.0).may_be_smooth(), "roughness 0.005: α² = 6e-10");
+        assert!(!material(0.0, 0.5, 1.0).may_be_smooth());
+        assert!(Material { coat: 1.0, coat_roughness: 0.0, ..material(0.0, 0.5, 1.0) }.may_be_smooth(), "a smooth coat");
+        assert!(!Material { coat: 0.0, coat_roughness: 0.0, ..material(0.0, 0.5, 1.0) }.may_be_smooth(), "no coat");
+        assert!(with_roughness_texture(material(1.0, 1.0, 1.0)).may_be_smooth(), "a texel may be 0");
+    }
+
     #[test]
     fn a_roughness_texture_counts_by_its_smoothest_texel() {
         let rough = with_roughness_texture(material(1.0, 1.0, 1.0));

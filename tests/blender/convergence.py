@@ -6,8 +6,10 @@ on one machine.
 For each comparison scene (the Cornell box, imported from scenes/ with
 Blender's glTF importer, a rough gold sphere under an area light, a hall
 of 32 area lights, a room lit by the World through a window with a
-portal in it, and the gold sphere again under a bulb: a point light of
-radius 0.1 m, whose light the gold focuses onto the floor), it:
+portal in it, the gold sphere again under a bulb: a point light of
+radius 0.1 m, whose light the gold focuses onto the floor, and a sphere
+of smooth glass in its place, lit from behind, which focuses the area
+light onto the floor before it), it:
 
 1. renders a converged reference with each renderer (--reference-spp
    samples): each renderer's noise is measured against its own converged
