@@ -114,8 +114,14 @@ def glass_sphere(scene):
     sphere.data.materials.clear()
     give_principled(sphere, "Glass", Base_Color=(1.0, 1.0, 1.0, 1), Roughness=0.0, Transmission_Weight=1.0, IOR=1.5)
     key = scene.objects["Key"]
-    key.location = (-2.0, 2.0, 3.0)
-    key.rotation_euler = (math.radians(40), 0, math.radians(225))
+    # Behind and above it, facing it, out of the camera's view (Mitsuba
+    # would show it: Cycles hides lights from the camera, and Mitsuba's
+    # only way to is to hide the World too).
+    key.location = (-2.0, 2.0, 5.0)
+    key.rotation_euler = (math.radians(29.4), 0, math.radians(225))
+    # The Mitsuba conversion reads matrix_world, which moves with them only
+    # once the view layer is updated.
+    bpy.context.view_layer.update()
 
 
 def lamp_hall(scene):
