@@ -354,6 +354,29 @@ fn transparent_glass_turns_the_world_seen_through_glass_into_alpha() {
     assert!(centre(&alpha) == 1.0, "glass rougher than the threshold: alpha {}", centre(&alpha));
 }
 
+/// A sphere of radius 0.4 (smooth glass, or a mirror), 20 cm over a
+/// floor, under a square lamp of half-size `lamp_half` (radiance
+/// 1/lamp_half²) or a 5 cm bulb above and to one side, and a camera on
+/// the floor's caustic: everything `scale` times as large, the radiances
+/// the same.
+fn ball_over_floor(bulb: bool, mirror: bool, lamp_half: f32, scale: f32) -> Scene {
+    use glint::punctual::{PunctualKind, PunctualLight};
+    let lamp_at = Vec3::new(0.5, 1.6, -0.4) * scale;
+    let mut tris = common::horizontal_quad(Vec3::ZERO, 2.0 * scale, 0.0, true, 0);
+    tris.extend(sphere(Vec3::new(0.0, 0.6, 0.0) * scale, 0.4 * scale, 32, 64, 1));
+    let ball = if mirror { Material { name: "mirror".into(), base_color: Vec3::splat(0.9), metallic: 1.0, roughness: 0.0, ..Material::default() } } else { glass(0.0) };
+    let mut materials = vec![common::diffuse("floor", 0.7), ball];
+    if !bulb {
+        tris.extend(common::horizontal_quad(lamp_at, lamp_half * scale, lamp_at.y, false, 2));
+        materials.push(common::emitter(Vec3::splat(1.0 / (lamp_half * lamp_half))));
+    }
+    let mut scene = Scene::new(tris, materials, common::look_at(Vec3::new(-0.6, 1.4, 2.2) * scale, Vec3::new(-0.2, 0.1, 0.2) * scale, 0.9));
+    if bulb {
+        scene.punctual = vec![PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: lamp_at, direction: -Vec3::Y, intensity: Vec3::splat(4.0 * scale * scale), size: 0.05 * scale, sphere: false, camera_sees: false, shadowless: false }];
+    }
+    scene
+}
+
 /// A glass sphere 20 cm over a floor, lit from above and to one side: it
 /// focuses the light into a caustic on the floor, which camera paths
 /// find only when a floor point's BSDF sample passes through the sphere
@@ -368,28 +391,11 @@ fn transparent_glass_turns_the_world_seen_through_glass_into_alpha() {
 /// tracing alone, in renders of their own.
 #[test]
 fn light_paths_through_glass_keep_the_image_and_lower_the_caustics_noise() {
-    use glint::punctual::{PunctualKind, PunctualLight};
     use glint::render::LightPaths;
     use glint::strategies::{Strategies, Strategy};
-    let lamp_at = Vec3::new(0.5, 1.6, -0.4);
-    let scene_with = |bulb: bool, mirror: bool, lamp_half: f32| {
-        let mut tris = common::horizontal_quad(Vec3::ZERO, 2.0, 0.0, true, 0);
-        tris.extend(sphere(Vec3::new(0.0, 0.6, 0.0), 0.4, 32, 64, 1));
-        let ball = if mirror { Material { name: "mirror".into(), base_color: Vec3::splat(0.9), metallic: 1.0, roughness: 0.0, ..Material::default() } } else { glass(0.0) };
-        let mut materials = vec![common::diffuse("floor", 0.7), ball];
-        if !bulb {
-            tris.extend(common::horizontal_quad(lamp_at, lamp_half, lamp_at.y, false, 2));
-            materials.push(common::emitter(Vec3::splat(1.0 / (lamp_half * lamp_half))));
-        }
-        let mut scene = Scene::new(tris, materials, common::look_at(Vec3::new(-0.6, 1.4, 2.2), Vec3::new(-0.2, 0.1, 0.2), 0.9));
-        if bulb {
-            scene.punctual = vec![PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: lamp_at, direction: -Vec3::Y, intensity: Vec3::splat(4.0), size: 0.05, sphere: false, camera_sees: false, shadowless: false }];
-        }
-        scene
-    };
     let (w, h) = (32u32, 32u32);
     for (what, lamp_half, bulb, mirror) in [("a lamp through glass", 0.1, false, false), ("a large lamp through glass", 0.6, false, false), ("a bulb through glass", 0.0, true, false), ("a lamp off a mirror ball", 0.1, false, true)] {
-        let scene = scene_with(bulb, mirror, lamp_half);
+        let scene = ball_over_floor(bulb, mirror, lamp_half, 1.0);
         let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(w, h, 64, 8, 0) };
         let (ctx, _) = Context::new(&scene);
         assert!(ctx.traces_light_paths(&s), "{what}: {}", ctx.features_line(&s));
@@ -436,5 +442,43 @@ fn light_paths_through_glass_keep_the_image_and_lower_the_caustics_noise() {
         // the test is of the weights, which give each strategy a part.
         let (v_on, v_off) = (variances[0].0 * 128.0, variances[0].1 * 1024.0);
         assert!(v_on < if lamp_half > 0.5 { 1.5 } else { 0.5 } * v_off, "{what}: the caustic's variance per sample with light paths {v_on} vs without {v_off}");
+    }
+}
+
+/// The same glass sphere's caustic at 1/1000 and 1000 times the size:
+/// the subpaths' reference density through the glass (`DeltaStart`, the
+/// way's length squared) and the camera side's weights must neither
+/// overflow nor lose the image, which is the same in expectation (each
+/// channel's mean over the image and over its brightest 4%, within 5
+/// standard errors of the render at size 1).
+#[test]
+fn light_paths_through_glass_keep_the_image_at_every_scale() {
+    use glint::render::LightPaths;
+    let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(32, 32, 128, 8, 0) };
+    let renders = |scale: f32, seeds: std::ops::Range<u64>| -> Vec<Vec<Vec3>> {
+        let scene = ball_over_floor(false, false, 0.1, scale);
+        seeds
+            .map(|seed| {
+                let (img, stats) = render(&scene, &RenderSettings { seed, ..s.clone() }, 2);
+                common::assert_clean(&img, &stats, &format!("scale {scale}"));
+                img
+            })
+            .collect()
+    };
+    let lum = |p: &Vec3| p.dot(Vec3::ONE) / 3.0;
+    let picked = renders(1.0, 100..101);
+    let mut order: Vec<usize> = (0..picked[0].len()).collect();
+    order.sort_by(|&a, &b| lum(&picked[0][b]).total_cmp(&lum(&picked[0][a])));
+    let bright = &order[..order.len() / 25];
+    let all: Vec<usize> = (0..picked[0].len()).collect();
+    let reference = renders(1.0, 1..5);
+    for scale in [1e-3f32, 1e3] {
+        let scaled = renders(scale, 11..15);
+        for (part, pixels) in [("image", &all[..]), ("brightest", bright)] {
+            let means = |imgs: &[Vec<Vec3>]| -> (f64, f64) { mean_and_standard_error(&imgs.iter().map(|img| pixels.iter().map(|&i| lum(&img[i])).sum::<f32>() / pixels.len() as f32).collect::<Vec<_>>()) };
+            let ((a, sa), (b, sb)) = (means(&scaled), means(&reference));
+            println!("scale {scale}, {part}: {a:.5} ± {sa:.5} against {b:.5} ± {sb:.5}");
+            assert!((a - b).abs() < 5.0 * (sa * sa + sb * sb).sqrt(), "scale {scale}, {part}: {a} ± {sa} against {b} ± {sb} at size 1");
+        }
     }
 }
