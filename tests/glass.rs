@@ -356,23 +356,23 @@ fn transparent_glass_turns_the_world_seen_through_glass_into_alpha() {
 
 /// A sphere of radius 0.4 (smooth glass, or a mirror), 20 cm over a
 /// floor, under a square lamp of half-size `lamp_half` (radiance
-/// 1/lamp_half²) or a 5 cm bulb above and to one side, and a camera on
-/// the floor's caustic: everything `scale` times as large, the radiances
-/// the same.
-fn ball_over_floor(bulb: bool, mirror: bool, lamp_half: f32, scale: f32) -> Scene {
-    use glint::punctual::{PunctualKind, PunctualLight};
+/// 1/lamp_half²) or a 5 cm `bulb` (a point or a spot shining down) above
+/// and to one side, and a camera on the floor's caustic: everything
+/// `scale` times as large, the radiances the same.
+fn ball_over_floor(bulb: Option<glint::punctual::PunctualKind>, mirror: bool, lamp_half: f32, scale: f32) -> Scene {
+    use glint::punctual::PunctualLight;
     let lamp_at = Vec3::new(0.5, 1.6, -0.4) * scale;
     let mut tris = common::horizontal_quad(Vec3::ZERO, 2.0 * scale, 0.0, true, 0);
     tris.extend(sphere(Vec3::new(0.0, 0.6, 0.0) * scale, 0.4 * scale, 32, 64, 1));
     let ball = if mirror { Material { name: "mirror".into(), base_color: Vec3::splat(0.9), metallic: 1.0, roughness: 0.0, ..Material::default() } } else { glass(0.0) };
     let mut materials = vec![common::diffuse("floor", 0.7), ball];
-    if !bulb {
+    if bulb.is_none() {
         tris.extend(common::horizontal_quad(lamp_at, lamp_half * scale, lamp_at.y, false, 2));
         materials.push(common::emitter(Vec3::splat(1.0 / (lamp_half * lamp_half))));
     }
     let mut scene = Scene::new(tris, materials, common::look_at(Vec3::new(-0.6, 1.4, 2.2) * scale, Vec3::new(-0.2, 0.1, 0.2) * scale, 0.9));
-    if bulb {
-        scene.punctual = vec![PunctualLight { name: "bulb".into(), kind: PunctualKind::Point, position: lamp_at, direction: -Vec3::Y, intensity: Vec3::splat(4.0 * scale * scale), size: 0.05 * scale, sphere: false, camera_sees: false, shadowless: false }];
+    if let Some(kind) = bulb {
+        scene.punctual = vec![PunctualLight { name: "bulb".into(), kind, position: lamp_at, direction: -Vec3::Y, intensity: Vec3::splat(4.0 * scale * scale), size: 0.05 * scale, sphere: false, camera_sees: false, shadowless: false }];
     }
     scene
 }
@@ -386,7 +386,7 @@ fn ball_over_floor(bulb: bool, mirror: bool, lamp_half: f32, scale: f32) -> Scen
 /// camera paths alone put it — the whole image and the caustic, each
 /// channel within 5 standard errors — and make the caustic less noisy.
 /// The same for a lamp (a small emitting square), a bulb of 5 cm drawn as
-/// a disk, and a mirror ball under the lamp (a metal's delta lobe, whose
+/// a disk, a spot of 5 cm (60°) shining down, and a mirror ball under the lamp (a metal's delta lobe, whose
 /// light spreads). The caustic is the brightest 4% of the image by light
 /// tracing alone, in renders of their own.
 #[test]
@@ -394,7 +394,9 @@ fn light_paths_through_glass_keep_the_image_and_lower_the_caustics_noise() {
     use glint::render::LightPaths;
     use glint::strategies::{Strategies, Strategy};
     let (w, h) = (32u32, 32u32);
-    for (what, lamp_half, bulb, mirror) in [("a lamp through glass", 0.1, false, false), ("a large lamp through glass", 0.6, false, false), ("a bulb through glass", 0.0, true, false), ("a lamp off a mirror ball", 0.1, false, true)] {
+    use glint::punctual::{PunctualKind, PunctualLight};
+    let spot = PunctualLight::spot(60f32.to_radians(), 45f32.to_radians());
+    for (what, lamp_half, bulb, mirror) in [("a lamp through glass", 0.1, None, false), ("a large lamp through glass", 0.6, None, false), ("a bulb through glass", 0.0, Some(PunctualKind::Point), false), ("a spot through glass", 0.0, Some(spot), false), ("a lamp off a mirror ball", 0.1, None, true)] {
         let scene = ball_over_floor(bulb, mirror, lamp_half, 1.0);
         let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(w, h, 64, 8, 0) };
         let (ctx, _) = Context::new(&scene);
@@ -456,7 +458,7 @@ fn light_paths_through_glass_keep_the_image_at_every_scale() {
     use glint::render::LightPaths;
     let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(32, 32, 128, 8, 0) };
     let renders = |scale: f32, seeds: std::ops::Range<u64>| -> Vec<Vec<Vec3>> {
-        let scene = ball_over_floor(false, false, 0.1, scale);
+        let scene = ball_over_floor(None, false, 0.1, scale);
         seeds
             .map(|seed| {
                 let (img, stats) = render(&scene, &RenderSettings { seed, ..s.clone() }, 2);
