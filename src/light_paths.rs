@@ -716,17 +716,17 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
     }) else {
         return;
     };
-    // Some(…) while every sample so far was a delta lobe's.
-    let mut through_delta = (ctx.delta_starts() && delta_start.reached).then_some(());
+    // While every sample so far was a delta lobe's.
+    let mut through_delta = ctx.delta_starts() && delta_start.reached;
     let mut throughput = Vec3::ONE;
     loop {
         // A surface inside the glass (an odd number of refractions) is
         // left out with what lies beyond it.
-        let inside = through_delta.is_some() && delta_start.refractions % 2 == 1;
+        let inside = through_delta && delta_start.refractions % 2 == 1;
         let stored = carries_light_paths(&v.hit.surface) && !inside;
         if stored {
             vertex(&v, rng, rays);
-        } else if through_delta.is_none() || !(B::GLASS && v.hit.surface.transmission > 0.0) {
+        } else if !(through_delta && B::GLASS && v.hit.surface.transmission > 0.0) {
             return;
         }
         if v.depth >= max_vertex_depth {
@@ -740,7 +740,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         let bsdf: B = bsdf_at(prepared, &v.hit, &frame, wo);
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { return };
         let w = frame.to_world(s.wi);
-        if !(s.pdf > 0.0) || !same_side(&v.hit, w, s.wi) || (s.delta && through_delta.is_none()) || !(s.delta || stored) {
+        if !(s.pdf > 0.0) || !same_side(&v.hit, w, s.wi) || (s.delta && !through_delta) || !(s.delta || stored) {
             return;
         }
         // ng faces y_{k−1}.
@@ -753,7 +753,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], rng: &
         let (factor, pdf_camera) = if s.delta {
             (s.weight * (wo.z * cos_out / (s.wi.z.abs() * cos_in)), 0.0)
         } else {
-            through_delta = None;
+            through_delta = false;
             let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, &frame, s.wi).evaluate(s.wi, wo);
             (f * (wo.z * cos_out / (cos_in * s.pdf)), pdf_camera)
         };

@@ -81,6 +81,12 @@ impl Surface {
 /// spp at roughness 0.1 and were even at 0.3.
 pub const FOCUSING_ROUGHNESS: f32 = 0.6;
 
+/// Whether a lobe of this roughness is a delta, as the BSDFs decide it:
+/// α² ≤ `SMOOTH_ALPHA_SQ`, α = roughness².
+fn is_smooth(roughness: f32) -> bool {
+    (roughness * roughness).powi(2) <= crate::bsdf::SMOOTH_ALPHA_SQ
+}
+
 /// The tangent an anisotropic material is stretched along, as Cycles'
 /// Tangent node gives it (its default, for an unlinked Tangent input:
 /// radial about Z).
@@ -376,8 +382,7 @@ impl Material {
     /// that a caller can scan each image once (`Image::smallest`).
     pub fn focuses_light(&self, smallest_roughness_texel: impl FnOnce(u32) -> f32) -> bool {
         let textures = self.textures.as_deref();
-        let alpha = self.roughness * self.roughness;
-        if !self.lamp && self.is_transmissive() && !self.translucent && self.absorption == Vec3::ZERO && alpha * alpha <= crate::bsdf::SMOOTH_ALPHA_SQ {
+        if !self.lamp && self.is_transmissive() && !self.translucent && self.absorption == Vec3::ZERO && is_smooth(self.roughness) {
             return true;
         }
         let somewhere_opaque = self.transmission <= 0.0 || textures.is_some_and(|t| t.transmission.is_some());
@@ -395,9 +400,8 @@ impl Material {
     /// `SMOOTH_ALPHA_SQ`, α = roughness²): its roughness or its coat's, or
     /// a roughness texture's texel of 0.
     pub fn may_be_smooth(&self) -> bool {
-        let smooth = |roughness: f32| (roughness * roughness).powi(2) <= crate::bsdf::SMOOTH_ALPHA_SQ;
         let textures = self.textures.as_deref();
-        smooth(self.roughness) || textures.is_some_and(|t| t.metallic_roughness.is_some()) || (self.is_coated() && (smooth(self.coat_roughness) || textures.is_some_and(|t| t.coat_roughness.is_some())))
+        is_smooth(self.roughness) || textures.is_some_and(|t| t.metallic_roughness.is_some()) || (self.is_coated() && (is_smooth(self.coat_roughness) || textures.is_some_and(|t| t.coat_roughness.is_some())))
     }
 
     /// Whether a clear coat lies over it.
