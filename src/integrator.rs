@@ -56,6 +56,8 @@ use crate::camera::{CameraDensity, CameraRay};
 use crate::camera_hits::FirstHit;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::features::{Features, Kernel};
+use crate::caustic_guide::CausticGuide;
+use std::sync::Arc;
 use crate::light_paths::{carries_light_paths, ConnectionVertex};
 pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights, Picked};
@@ -113,9 +115,15 @@ pub struct Context<'a> {
     pub bin_camera_rays: bool,
     /// `light_paths_pay`, found once when first asked.
     light_paths_pay: std::sync::OnceLock<bool>,
+    /// The caustic guide (caustic_guide.rs) of the last render that asked
+    /// for one, by its subpaths and depth: progressive passes share it.
+    caustic_guide: std::sync::Mutex<Option<KeptGuide>>,
     /// Some emitter lies inside an absorbing medium (media.rs).
     emitters_in_media: bool,
 }
+
+/// A caustic guide by the subpaths and depth it was made for.
+type KeptGuide = ((u32, u32), Option<Arc<CausticGuide>>);
 
 impl<'a> Context<'a> {
     pub fn new(scene: &'a Scene) -> (Self, std::time::Duration) {
@@ -125,7 +133,7 @@ impl<'a> Context<'a> {
         let lights = Lights::new(scene);
         let features = Features::of(scene);
         let emitters_in_media = features.absorbing > 0 && media::emitters_inside(scene, &accel, &lights.triangles);
-        (Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default(), emitters_in_media }, surface_time + lamp_time)
+        (Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default(), caustic_guide: Default::default(), emitters_in_media }, surface_time + lamp_time)
     }
 
     /// The kernel these settings run on this scene.
@@ -173,6 +181,22 @@ impl<'a> Context<'a> {
     #[inline]
     pub(crate) fn delta_starts(&self) -> bool {
         self.features.delta_lobes && self.features.absorbing == 0
+    }
+
+    /// The caustic guide of `count` subpaths of depth up to `max_depth`
+    /// (light_paths.rs, `caustic_arrivals`), made once for a render's
+    /// passes, and the rays made for it (0 where it was made before).
+    pub(crate) fn caustic_guide<B: Bsdf>(&self, prepared: &[Option<[B::Prepared; 2]>], count: u32, max_depth: u32) -> (Option<Arc<CausticGuide>>, u64) {
+        let mut kept = self.caustic_guide.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((key, guide)) = kept.as_ref() {
+            if *key == (count, max_depth) {
+                return (guide.clone(), 0);
+            }
+        }
+        let (arrivals, rays) = LightVertices::caustic_arrivals::<B>(self, prepared, count, max_depth);
+        let guide = CausticGuide::new(&arrivals).map(Arc::new);
+        *kept = Some(((count, max_depth), guide.clone()));
+        (guide, rays)
     }
 
     /// Whether light subpaths find light here that camera paths reach
@@ -1207,10 +1231,21 @@ struct Step {
 
 /// The step from vertex `si` (BSDF `bsdf`, throughput `beta` up to it,
 /// `depth` bounces before it); None where the path ends there: no sample,
-/// one through the wrong side of the surface, or Russian roulette.
+/// one through the wrong side of the surface, or Russian roulette. Where
+/// the caustic guide has landings near `si`, the direction is drawn from
+/// its mixture with the BSDF (`guided_sample`).
 #[inline(always)]
-fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u32, rng: &mut Rng) -> Option<Step> {
-    let s = bsdf.sample(wo, rng.next_f32(), rng.next_2d())?;
+#[allow(clippy::too_many_arguments)]
+fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u32, guide: Option<&CausticGuide>, rng: &mut Rng) -> Option<Step> {
+    let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
+    let near = match guide {
+        Some(g) if guided_surface(&si.surface) => g.at(si.p),
+        _ => &[],
+    };
+    let s = match guide {
+        Some(g) if !near.is_empty() => guided_sample(si, bsdf, wo, g, near, u_lobe, u)?,
+        _ => bsdf.sample(wo, u_lobe, u)?,
+    };
     let wi = si.frame.to_world(s.wi);
     if !same_side(si, wi, s.wi) {
         return None;
@@ -1231,6 +1266,44 @@ fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u3
         beta /= q;
     }
     Some(Step { sample: s, wi, origin: si.spawn_origin(wi), beta })
+}
+
+const DEBUG_TRAIL: bool = false;
+thread_local!(static GUIDED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) });
+
+/// Surfaces the caustic guide samples at: neither glass nor smooth, whose
+/// delta lobes no mixture with a density can hold, nor coated.
+#[inline]
+fn guided_surface(s: &Surface) -> bool {
+    s.transmission <= 0.0 && s.coat <= 0.0 && !crate::material::is_smooth(s.roughness)
+}
+
+/// A direction from the caustic guide's mixture at `si` (caustic_guide.rs):
+/// with probability `SHARE` from the cones about the landings `near`, else
+/// the BSDF's, and the path's factor f·cos/p for the mixture's density p.
+/// The sample keeps the BSDF's own pdf, which every MIS weight reads: the
+/// weights of a path's strategies still sum to 1, and the estimate stays
+/// unbiased whatever the guide's density.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn guided_sample<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, guide: &CausticGuide, near: &[Vec3], u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+    use crate::caustic_guide::SHARE;
+    if u_lobe < SHARE {
+        let wi = guide.sample(near, u_lobe / SHARE, u);
+        let wi_local = si.frame.to_local(wi);
+        let (f, pdf) = bsdf.evaluate(wo, wi_local);
+        let mixture = (1.0 - SHARE) * pdf + SHARE * guide.pdf(near, wi);
+        if !(pdf > 0.0 && mixture > 0.0) || f == Vec3::ZERO {
+            return None;
+        }
+        return Some(BsdfSample { wi: wi_local, f, pdf, weight: f * (wi_local.z.abs() / mixture), delta: false, diffuse: true });
+    }
+    let s = bsdf.sample(wo, (u_lobe - SHARE) / (1.0 - SHARE), u)?;
+    let mixture = (1.0 - SHARE) * s.pdf + SHARE * guide.pdf(near, si.frame.to_world(s.wi));
+    if s.delta || !(mixture > 0.0) {
+        return None;
+    }
+    Some(BsdfSample { weight: s.weight * (s.pdf / mixture), ..s })
 }
 
 /// Radiance arriving along a camera ray: the kernel for BSDF `B` and the
@@ -1256,6 +1329,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     first: FirstHit,
 ) -> (Vec3, f32) {
     let max_depth = settings.max_depth;
+    let guide = light_vertices.and_then(|v| v.guide.as_deref());
+    let mut trail: u64 = 0;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (camera.origin, camera.dir);
@@ -1344,7 +1419,15 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             if (depth > 0 || material.camera_sees_lamp) && seen_kept {
                 let cos_light = tri.cross().normalize().dot(d);
                 let le = material.emitted(cos_light < 0.0) * material.spread_factor(-cos_light);
-                l += absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, seen_through, settings.mis);
+                let c = absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, seen_through, settings.mis);
+                if DEBUG_TRAIL && depth >= 3 && c.max_element() > 0.0 {
+                    use std::io::Write;
+                    static F: std::sync::Mutex<Option<std::fs::File>> = std::sync::Mutex::new(None);
+                    let mut f = F.lock().unwrap();
+                    if f.is_none() { *f = std::fs::File::create("/tmp/trail.txt").ok(); }
+                    if let Some(f) = f.as_mut() { let _ = writeln!(f, "{} {:o} {} {} {}", depth, trail, (c.x + c.y + c.z) / 3.0, camera.dir.x, seen_through.is_some()); }
+                }
+                l += c;
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
@@ -1380,7 +1463,15 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
                 le *= w;
             }
-            l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, seen_through, settings.mis);
+            let c = beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, seen_through, settings.mis);
+            if DEBUG_TRAIL && depth >= 3 && c.max_element() > 0.0 {
+                use std::io::Write;
+                static F: std::sync::Mutex<Option<std::fs::File>> = std::sync::Mutex::new(None);
+                let mut f = F.lock().unwrap();
+                if f.is_none() { *f = std::fs::File::create("/tmp/trail.txt").ok(); }
+                if let Some(f) = f.as_mut() { let _ = writeln!(f, "{} {:o} {} {}", depth, trail, (c.x + c.y + c.z) / 3.0, camera.dir.x); }
+            }
+            l += c;
         }
         if depth == max_depth {
             break;
@@ -1429,7 +1520,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // Under the seed's rule a ray after the last vertex could only see
         // the World behind a mirror: paths end here, as the seed's did.
         let ends = depth + 1 == max_depth && !settings.mis;
-        let step = if ends { None } else { next_step(&si, &bsdf, wo, beta, depth, rng) };
+        let step = if ends { None } else { next_step(&si, &bsdf, wo, beta, depth, guide, rng) };
         if lit {
             let direct = direct_light::<B, AREA, PUNCTUAL>(ctx, &si, &bsdf, wo, settings.mis, &chain, picked, sides.as_ref(), rng, rays);
             if settings.strategies.keeps(Strategy::Light, depth + 1) {
@@ -1457,6 +1548,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             }
         }
         let Some(Step { sample: s, wi, origin, beta: next_beta }) = step else { break };
+        trail = trail * 8 + if s.delta { if s.wi.z < 0.0 { 2 } else { 1 } } else if si.surface.transmission > 0.0 { 4 } else { 3 + 2 * GUIDED.with(|c| c.get()) };
         beta = next_beta;
         if let Some(sides) = &sides {
             media = *sides.toward(wi.dot(si.ng));

@@ -452,6 +452,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         sampler: options.sampler.unwrap_or_default(),
         light_paths,
         light_tracing: true,
+        caustic_guide: true,
         strategies: Default::default(),
         transparent: options.transparent.unwrap_or(false),
         transparent_glass: options.transparent_glass,

@@ -39,6 +39,7 @@
 //! the shading point, the measure MIS compares them in.
 
 use crate::bsdf::luminance;
+use crate::caustic_guide::Aim;
 use crate::integrator::{offset_origin, point_on_triangle};
 use crate::material::Material;
 use crate::sampling::{cosine_hemisphere, uniform_triangle, Distribution1D, Frame};
@@ -868,7 +869,7 @@ impl Lights {
     /// The start of a light subpath from an emitting triangle
     /// (`sample_start`); None where the pick lands on a punctual light.
     pub fn sample_emission(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
-        match self.sample_start(scene, u_pick, u_point, u_dir)? {
+        match self.sample_start(scene, u_pick, u_point, u_dir, None)? {
             Start::Emitter(start) => Some(start),
             Start::Point(_) => None,
         }
@@ -894,7 +895,10 @@ impl Lights {
     /// direction from it (within the cone of a lamp's Spread); from a
     /// point or spot light as `PunctualLight::start` says. None where the
     /// pick lands on a sun, or the start emits nothing.
-    pub fn sample_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2) -> Option<Start> {
+    /// With `aim`, an emitter's direction is drawn toward its sphere
+    /// instead (caustic_guide.rs): its density and α are then not the
+    /// start's, and only where the subpath goes counts.
+    pub fn sample_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2, aim: Option<&Aim>) -> Option<Start> {
         if self.distribution.is_empty() {
             return None;
         }
@@ -906,17 +910,18 @@ impl Lights {
         let m = &scene.materials[tri.material as usize];
         let b = uniform_triangle(u_point);
         let front = !m.double_sided || u_face < 0.5;
-        let local = match m.spread {
-            Some(spread) => spread.emission_direction(u_dir),
-            None => cosine_hemisphere(u_dir),
+        let normal = if front { self.emitters[pick].normal } else { -self.emitters[pick].normal };
+        let (point, error) = point_on_triangle(&tri.p(), b.x, b.y);
+        let local = match (m.spread, aim) {
+            (Some(spread), _) => spread.emission_direction(u_dir),
+            (None, Some(aim)) => aim.direction(point, normal, u_dir)?,
+            (None, None) => cosine_hemisphere(u_dir),
         };
         let le = shading::emission_at(scene, m, triangle, Barycentric::new(b.x, b.y), front) * m.spread_factor(local.z);
         let weight = m.emission_direction_weight(local.z);
         if le == Vec3::ZERO || !(local.z > 0.0 && weight > 0.0) {
             return None;
         }
-        let normal = if front { self.emitters[pick].normal } else { -self.emitters[pick].normal };
-        let (point, error) = point_on_triangle(&tri.p(), b.x, b.y);
         let origin = offset_origin(point, error, normal, normal);
         Some(Start::Emitter(EmissionSample { triangle, origin, normal, dir: Frame::from_normal(normal).to_world(local), le, density: self.emission_density(m) * weight }))
     }

@@ -242,6 +242,11 @@ struct RenderArgs {
     /// N-M, or N- (N and more) [default: all].
     #[arg(long, value_parser = Strategies::parse_depths)]
     depths: Option<(u32, u32)>,
+    /// Camera paths look for caustics where light subpaths through smooth
+    /// glass and mirrors found them (scenes with such surfaces and light
+    /// paths); off, to measure what that gives [default: on].
+    #[arg(long, value_parser = ["on", "off"])]
+    caustic_guide: Option<String>,
 }
 
 #[derive(Args)]
@@ -298,6 +303,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let load_time = load_start.elapsed();
     let (min, max) = args.depths.unwrap_or((0, u32::MAX));
     settings.strategies = args.strategies.unwrap_or_default().with_depths(min, max);
+    settings.caustic_guide = args.caustic_guide.as_deref() != Some("off");
     let scene_name = args.scene.as_ref().map_or(glint::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     for w in &scene.warnings {
         glint::stderr_line!("warning: {scene_name}: {w}");
@@ -389,8 +395,11 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         let phases = &stats.phases;
         let (setup, subpaths, paths) = (phases.setup.as_secs_f64(), phases.light_subpaths.as_secs_f64(), phases.camera_paths.as_secs_f64());
-        glint::stderr_line!("time by phase: set-up {setup:.5} s (MIS scale, camera rays' bins, the sums' pages), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film, passes)",
+        glint::stderr_line!("time by phase: set-up {setup:.5} s (caustic guide, MIS scale, camera rays' bins, the sums' pages), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film, passes)",
             (seconds - setup - subpaths - paths).max(0.0));
+        if let Some((directions, cells, edge)) = stats.caustic_guide {
+            glint::stderr_line!("caustic guide: {directions} directions in {cells} cells of {edge:.3} m, made in {:.5} s of the set-up", phases.caustic_guide.as_secs_f64());
+        }
         glint::stderr_line!("discarded samples (non-finite or above {:e}): {}", glint::render::MAX_SAMPLE, stats.discarded);
         if let Some(kib) = glint::memory::peak_rss_kib() {
             glint::stderr_line!("memory: peak RSS {:.1} MiB", kib as f64 / 1024.0);

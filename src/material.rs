@@ -83,7 +83,7 @@ pub const FOCUSING_ROUGHNESS: f32 = 0.6;
 
 /// Whether a lobe of this roughness is a delta, as the BSDFs decide it:
 /// α² ≤ `SMOOTH_ALPHA_SQ`, α = roughness².
-fn is_smooth(roughness: f32) -> bool {
+pub(crate) fn is_smooth(roughness: f32) -> bool {
     (roughness * roughness).powi(2) <= crate::bsdf::SMOOTH_ALPHA_SQ
 }
 
@@ -402,6 +402,14 @@ impl Material {
     pub fn may_be_smooth(&self) -> bool {
         let textures = self.textures.as_deref();
         is_smooth(self.roughness) || textures.is_some_and(|t| t.metallic_roughness.is_some()) || (self.is_coated() && (is_smooth(self.coat_roughness) || textures.is_some_and(|t| t.coat_roughness.is_some())))
+    }
+
+    /// Glass or metal whose lobe is a delta one (`is_smooth`), not a
+    /// lamp: a surface that focuses an emitter's light into a caustic
+    /// only light subpaths through delta lobes carry (caustic_guide.rs).
+    pub fn throws_caustics(&self) -> bool {
+        let clear_glass = self.is_transmissive() && !self.translucent && self.absorption == Vec3::ZERO;
+        !self.lamp && is_smooth(self.roughness) && (clear_glass || self.metallic >= 0.5)
     }
 
     /// Whether a clear coat lies over it.

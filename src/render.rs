@@ -87,6 +87,9 @@ pub struct RenderSettings {
     /// Also add light subpaths' vertices to the pixels they appear in
     /// (light_tracing.rs), where light paths are on.
     pub light_tracing: bool,
+    /// Let camera paths look for caustics where light subpaths found them
+    /// (caustic_guide.rs), in scenes with smooth glass or mirrors.
+    pub caustic_guide: bool,
     /// Whose light reaches the image: all of it but when taking a render
     /// apart (strategies.rs).
     pub strategies: Strategies,
@@ -201,6 +204,9 @@ pub struct PassStats {
     /// first hits (camera_hits.rs); 0 where the BVH found them.
     pub camera_tests: f32,
     pub phases: Phases,
+    /// The caustic guide's directions, cells and cell edge (m), where the
+    /// render had one (`CausticGuide::summary`).
+    pub caustic_guide: Option<(usize, usize, f32)>,
 }
 
 /// Where a pass's wall time went, phase by phase (`--stats`): what a
@@ -214,6 +220,8 @@ pub struct Phases {
     pub setup: Duration,
     /// Tracing light subpaths and adding light tracing's splats.
     pub light_subpaths: Duration,
+    /// Of the set-up, the caustic guide's (caustic_guide.rs).
+    pub caustic_guide: Duration,
     /// The tiles: camera paths, their light samples and connections.
     pub camera_paths: Duration,
 }
@@ -225,6 +233,8 @@ impl PassStats {
         self.camera_tests = self.camera_tests.max(o.camera_tests);
         self.phases.setup += o.phases.setup;
         self.phases.light_subpaths += o.phases.light_subpaths;
+        self.phases.caustic_guide += o.phases.caustic_guide;
+        self.caustic_guide = self.caustic_guide.or(o.caustic_guide);
         self.phases.camera_paths += o.phases.camera_paths;
     }
 }
@@ -333,9 +343,21 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then_some(LightTracing { lens: &lens, filter: &settings.pixel_filter, width: w, height: h, subpaths: traced as f32, mis_scale, strategies: settings.strategies });
     // One batch of each sample index's subpaths; the first holds the
     // vertices connections take (`per_sample` ≤ TRACED_BATCH of them).
+    // Where light subpaths go through glass and mirrors, where camera
+    // paths look for what they focus (caustic_guide.rs): made before the
+    // bins and the MIS scale, its subpaths on both threads.
+    let guide_started = Instant::now();
+    let (guide, guide_rays) = if connect && settings.caustic_guide && ctx.delta_starts() {
+        ctx.caustic_guide::<B>(&prepared, LightVertices::caustic_subpaths(settings.spp), settings.max_depth)
+    } else {
+        (None, 0)
+    };
+    total.rays.bounce += guide_rays;
+    total.caustic_guide = guide.as_ref().map(|g| g.summary());
+    let guide_took = guide_started.elapsed();
     let trace_lights = |range: Range<u32>, batch: Range<u32>, mis_scale: f32| {
         let started = Instant::now();
-        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale);
+        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale, guide.as_ref());
         (traced, started.elapsed())
     };
     // Camera rays' first hits found without the BVH where that is
@@ -384,6 +406,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
     // What the set-up added to the wall clock beside the first subpaths.
     total.phases.setup = started.elapsed().saturating_sub(first_lights.as_ref().map_or(Duration::ZERO, |(_, took)| *took));
+    total.phases.caustic_guide = guide_took;
     let shared = PassShared::<B> { ctx, prepared: &prepared, lens: &lens, settings, camera_hits: camera_hits.as_ref(), sampler };
     let mut start = samples.start;
     while start < samples.end {
