@@ -122,8 +122,10 @@ pub struct Context<'a> {
     emitters_in_media: bool,
 }
 
-/// A caustic guide by the subpaths and depth it was made for.
-type KeptGuide = ((u32, u32), Option<Arc<CausticGuide>>);
+/// A caustic guide by the subpaths, depth and BSDF kernel it was made
+/// for: a render's image is a function of its own settings, whatever the
+/// same process rendered before.
+type KeptGuide = ((u32, u32, &'static str), Option<Arc<CausticGuide>>);
 
 impl<'a> Context<'a> {
     pub fn new(scene: &'a Scene) -> (Self, std::time::Duration) {
@@ -189,13 +191,13 @@ impl<'a> Context<'a> {
     pub(crate) fn caustic_guide<B: Bsdf>(&self, prepared: &[Option<[B::Prepared; 2]>], count: u32, max_depth: u32) -> (Option<Arc<CausticGuide>>, u64) {
         let mut kept = self.caustic_guide.lock().unwrap_or_else(|e| e.into_inner());
         if let Some((key, guide)) = kept.as_ref() {
-            if *key == (count, max_depth) {
+            if *key == (count, max_depth, std::any::type_name::<B>()) {
                 return (guide.clone(), 0);
             }
         }
         let (arrivals, rays) = LightVertices::caustic_arrivals::<B>(self, prepared, count, max_depth);
         let guide = CausticGuide::new(&arrivals).map(Arc::new);
-        *kept = Some(((count, max_depth), guide.clone()));
+        *kept = Some(((count, max_depth, std::any::type_name::<B>()), guide.clone()));
         (guide, rays)
     }
 

@@ -524,6 +524,9 @@ fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_th
             })
             .collect();
         assert!(ball.len() > 20, "{what}: the ball covers {} pixels", ball.len());
+        // The guide's subpaths are binned in order: one thread or two, the
+        // same image.
+        assert!(render(&scene, &RenderSettings { seed: 7, ..s.clone() }, 1).0 == render(&scene, &RenderSettings { seed: 7, ..s.clone() }, 2).0, "{what}: one thread and two differ");
         let (on, off) = (renders(true, 1..33), renders(false, 101..133));
         let means = |imgs: &[Vec<Vec3>], pixels: &[usize]| -> Vec<Vec3> { imgs.iter().map(|img| pixels.iter().map(|&i| img[i]).sum::<Vec3>() / pixels.len() as f32).collect() };
         let all: Vec<usize> = (0..(w * h) as usize).collect();
