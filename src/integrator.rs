@@ -1234,7 +1234,7 @@ struct Step {
 /// The step from vertex `si` (BSDF `bsdf`, throughput `beta` up to it,
 /// `depth` bounces before it); None where the path ends there: no sample,
 /// one through the wrong side of the surface, or Russian roulette. Where
-/// the caustic guide has landings near `si`, the direction is drawn from
+/// the caustic guide has arrivals near `si`, the direction is drawn from
 /// its mixture with the BSDF (`guided_sample`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -1270,8 +1270,6 @@ fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u3
     Some(Step { sample: s, wi, origin: si.spawn_origin(wi), beta })
 }
 
-const DEBUG_TRAIL: bool = false;
-thread_local!(static GUIDED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) });
 
 /// Surfaces the caustic guide samples at: neither glass nor smooth, whose
 /// delta lobes no mixture with a density can hold, nor coated.
@@ -1281,7 +1279,7 @@ fn guided_surface(s: &Surface) -> bool {
 }
 
 /// A direction from the caustic guide's mixture at `si` (caustic_guide.rs):
-/// with probability `SHARE` from the cones about the landings `near`, else
+/// with probability `SHARE` from the cones about the arrivals `near`, else
 /// the BSDF's, and the path's factor f·cos/p for the mixture's density p.
 /// The sample keeps the BSDF's own pdf, which every MIS weight reads: the
 /// weights of a path's strategies still sum to 1, and the estimate stays
@@ -1332,7 +1330,6 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
 ) -> (Vec3, f32) {
     let max_depth = settings.max_depth;
     let guide = light_vertices.and_then(|v| v.guide.as_deref());
-    let mut trail: u64 = 0;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (camera.origin, camera.dir);
@@ -1421,15 +1418,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             if (depth > 0 || material.camera_sees_lamp) && seen_kept {
                 let cos_light = tri.cross().normalize().dot(d);
                 let le = material.emitted(cos_light < 0.0) * material.spread_factor(-cos_light);
-                let c = absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, seen_through, settings.mis);
-                if DEBUG_TRAIL && depth >= 3 && c.max_element() > 0.0 {
-                    use std::io::Write;
-                    static F: std::sync::Mutex<Option<std::fs::File>> = std::sync::Mutex::new(None);
-                    let mut f = F.lock().unwrap();
-                    if f.is_none() { *f = std::fs::File::create("/tmp/trail.txt").ok(); }
-                    if let Some(f) = f.as_mut() { let _ = writeln!(f, "{} {:o} {} {} {}", depth, trail, (c.x + c.y + c.z) / 3.0, camera.dir.x, seen_through.is_some()); }
-                }
-                l += c;
+                l += absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, seen_through, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
@@ -1465,15 +1454,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
                 le *= w;
             }
-            let c = beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, seen_through, settings.mis);
-            if DEBUG_TRAIL && depth >= 3 && c.max_element() > 0.0 {
-                use std::io::Write;
-                static F: std::sync::Mutex<Option<std::fs::File>> = std::sync::Mutex::new(None);
-                let mut f = F.lock().unwrap();
-                if f.is_none() { *f = std::fs::File::create("/tmp/trail.txt").ok(); }
-                if let Some(f) = f.as_mut() { let _ = writeln!(f, "{} {:o} {} {}", depth, trail, (c.x + c.y + c.z) / 3.0, camera.dir.x); }
-            }
-            l += c;
+            l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, seen_through, settings.mis);
         }
         if depth == max_depth {
             break;
@@ -1550,7 +1531,6 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             }
         }
         let Some(Step { sample: s, wi, origin, beta: next_beta }) = step else { break };
-        trail = trail * 8 + if s.delta { if s.wi.z < 0.0 { 2 } else { 1 } } else if si.surface.transmission > 0.0 { 4 } else { 3 + 2 * GUIDED.with(|c| c.get()) };
         beta = next_beta;
         if let Some(sides) = &sides {
             media = *sides.toward(wi.dot(si.ng));
