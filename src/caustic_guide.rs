@@ -23,7 +23,9 @@
 //! The path's throughput divides by that mixture, while the MIS weights
 //! keep the BSDF's own density on every side, so that they still sum to 1
 //! over the strategies: the estimate stays unbiased, and what changes is
-//! which directions the samples take.
+//! which directions the samples take. Point and spot lights start the
+//! guide's subpaths unaimed (their start is `PunctualLight::start`'s):
+//! under a bulb it has fewer arrivals.
 
 use crate::Vec3;
 use glam::Vec2;

@@ -283,7 +283,7 @@ impl LightVertices {
 
     /// The caustic guide's subpaths for a render of `spp` samples: a
     /// thousand a sample, up to `CAUSTIC_SUBPATHS` (a 1-spp image of the
-    /// glass sphere spends 4 ms on a thousand of them).
+    /// glass sphere spends 2–4 ms on a thousand of them).
     pub fn caustic_subpaths(spp: u32) -> u32 {
         spp.saturating_mul(1024).clamp(1024, CAUSTIC_SUBPATHS)
     }
@@ -752,13 +752,16 @@ impl DeltaStart {
     }
 }
 
-/// Traces one subpath, handing each vertex to `vertex` as it is made.
+/// Traces one subpath, handing each vertex to `vertex` as it is made,
+/// and going on while `vertex` says so. With `aim` it leaves an emitter
+/// toward the aim's sphere (`Lights::sample_start`): what it carries is
+/// then not an estimate, and only where it goes counts (caustic_guide.rs).
 /// Until the subpath's first sample that is not from a delta lobe it goes
 /// on through glass and mirrors (`DeltaStart`), where light would
 /// otherwise reach the surfaces beyond only along the camera paths' BSDF
 /// samples: a glass sphere's caustic on the floor. Glass past that ends
 /// it, as a delta lobe does.
-fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], aim: Option<&crate::caustic_guide::Aim>, rng: &mut Rng, max_vertex_depth: u32, rays: &mut u64, vertex: &mut impl FnMut(&LightVertex, &mut Rng, &mut u64) -> bool) {
+fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], aim: Option<&Aim>, rng: &mut Rng, max_vertex_depth: u32, rays: &mut u64, vertex: &mut impl FnMut(&LightVertex, &mut Rng, &mut u64) -> bool) {
     let (u_pick, u_point) = rng.next_1d_2d();
     let Some(start) = ctx.lights.sample_start(ctx.scene, u_pick, u_point, rng.next_2d(), aim) else { return };
     if max_vertex_depth == 0 {
