@@ -27,6 +27,7 @@
 //! guide's subpaths unaimed (their start is `PunctualLight::start`'s):
 //! under a bulb it has fewer arrivals.
 
+use crate::sampling::{cone_pdf, cone_sample_within, one_minus_cos, Frame};
 use crate::Vec3;
 use glam::Vec2;
 
@@ -72,20 +73,9 @@ impl Aim {
         }
         // 1 − cos of the cone's half-angle, without cancellation.
         let one_minus_cos_max = s / (1.0 + (1.0 - s).sqrt());
-        let world = cone_direction(to / d2.sqrt(), one_minus_cos_max, u);
-        Some(crate::sampling::Frame::from_normal(normal).to_local(world))
+        let world = cone_sample_within(to / d2.sqrt(), one_minus_cos_max, u);
+        Some(Frame::from_normal(normal).to_local(world))
     }
-}
-
-/// A direction uniformly in the cone about unit `axis` whose half-angle's
-/// 1 − cos is `one_minus_cos_max`: its sine from 1 − cos, which keeps a
-/// narrow cone's.
-#[inline]
-fn cone_direction(axis: Vec3, one_minus_cos_max: f32, u: Vec2) -> Vec3 {
-    let one_minus_cos = u.x * one_minus_cos_max;
-    let (cos, sin) = (1.0 - one_minus_cos, (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt());
-    let (s, c) = (std::f32::consts::TAU * u.y).sin_cos();
-    crate::sampling::Frame::from_normal(axis).to_world(Vec3::new(sin * c, sin * s, cos))
 }
 
 /// One light subpath's arrival beyond delta lobes.
@@ -103,8 +93,9 @@ pub struct CausticGuide {
     /// Cell keys, sorted, with each cell's range in `dirs`.
     cells: Vec<(u64, u32, u32)>,
     dirs: Vec<Vec3>,
+    /// The cone's 1 − cos and cos of its half-angle, and its density.
+    one_minus_cos: f32,
     cos_cone: f32,
-    /// 1 / (the cone's solid angle).
     cone_density: f32,
 }
 
@@ -137,9 +128,8 @@ impl CausticGuide {
             dirs.extend(members.iter().step_by(step).map(|&i| finite[i].dir));
             cells.push((key, start, dirs.len() as u32));
         }
-        let cos_cone = CONE.cos();
-        let one_minus_cos = 2.0 * (0.5 * CONE).sin().powi(2);
-        Some(CausticGuide { origin, inv_cell, cells, dirs, cos_cone, cone_density: 1.0 / (std::f32::consts::TAU * one_minus_cos) })
+        let one_minus_cos = one_minus_cos(CONE);
+        Some(CausticGuide { origin, inv_cell, cells, dirs, one_minus_cos, cos_cone: CONE.cos(), cone_density: cone_pdf(one_minus_cos) })
     }
 
     /// The directions kept, the cells holding them, and the cells' edge
@@ -188,7 +178,7 @@ impl CausticGuide {
     #[inline]
     pub fn sample(&self, dirs: &[Vec3], u_pick: f32, u: Vec2) -> Vec3 {
         let axis = dirs[((u_pick * dirs.len() as f32) as usize).min(dirs.len() - 1)];
-        cone_direction(axis, 1.0 - self.cos_cone, u)
+        cone_sample_within(axis, self.one_minus_cos, u)
     }
 
     /// The density (solid angle) of `sample` drawing `dir` among `dirs`.

@@ -116,7 +116,7 @@ pub struct Context<'a> {
     /// `light_paths_pay`, found once when first asked.
     light_paths_pay: std::sync::OnceLock<bool>,
     /// The caustic guide (caustic_guide.rs) of the last render that asked
-    /// for one, by its subpaths and depth: progressive passes share it.
+    /// for one (`KeptGuide`): progressive passes share it.
     caustic_guide: std::sync::Mutex<Option<KeptGuide>>,
     /// Some emitter lies inside an absorbing medium (media.rs).
     emitters_in_media: bool,
@@ -1237,7 +1237,6 @@ struct Step {
 /// the caustic guide has arrivals near `si`, the direction is drawn from
 /// its mixture with the BSDF (`guided_sample`).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u32, guide: Option<&CausticGuide>, rng: &mut Rng) -> Option<Step> {
     let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
     let near = match guide {
@@ -1285,7 +1284,6 @@ fn guided_surface(s: &Surface) -> bool {
 /// weights of a path's strategies still sum to 1, and the estimate stays
 /// unbiased whatever the guide's density.
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
 fn guided_sample<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, guide: &CausticGuide, near: &[Vec3], u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
     use crate::caustic_guide::SHARE;
     if u_lobe < SHARE {

@@ -29,7 +29,7 @@
 //! shadow. With r = 0 only light sampling
 //! reaches a light, and its samples take the full weight.
 
-use crate::sampling::{concentric_disk, Frame};
+use crate::sampling::{concentric_disk, cone_pdf, cone_sample_within, one_minus_cos, Frame};
 use glam::Vec2;
 use crate::Vec3;
 use std::f32::consts::PI;
@@ -279,34 +279,11 @@ fn disk_pdf(t2: f32, r: f32, cos_light: f32) -> f32 {
     if cos_light > 0.0 { t2 / (PI * r * r * cos_light) } else { f32::INFINITY }
 }
 
-/// 1 − cosθ (a cone's solid angle / 2π), formed as 2 sin²(θ/2) so that a
-/// cone of 0.01° is not lost to rounding.
-fn one_minus_cos(theta: f32) -> f32 {
-    let h = (0.5 * theta).sin();
-    2.0 * h * h
-}
-
-/// Solid-angle density of a direction drawn uniformly in a cone whose
-/// 1 − cosθmax is `one_minus_cos`.
-fn cone_pdf(one_minus_cos: f32) -> f32 {
-    1.0 / (2.0 * PI * one_minus_cos)
-}
-
 /// A direction uniformly in the cone of half-angle θmax about `axis`, and
 /// the cone's 1 − cosθmax.
 fn cone_sample(axis: Vec3, theta_max: f32, u: Vec2) -> (Vec3, f32) {
     let one_minus_cos = one_minus_cos(theta_max);
     (cone_sample_within(axis, one_minus_cos, u), one_minus_cos)
-}
-
-/// `cone_sample` of the cone whose 1 − cosθmax is `one_minus_cos`.
-fn cone_sample_within(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
-    // 1 − cosθ uniform in [0, 1 − cosθmax].
-    let omc = u.x * one_minus_cos;
-    let sin_t = (omc * (2.0 - omc)).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), 1.0 - omc);
-    Frame::from_normal(axis).to_world(local).normalize()
 }
 
 #[cfg(test)]

@@ -341,8 +341,6 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // Not every camera can be joined to a point (`Lens::joinable`).
     let traced = share(traced_per_sample(w, h), 1);
     let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then_some(LightTracing { lens: &lens, filter: &settings.pixel_filter, width: w, height: h, subpaths: traced as f32, mis_scale, strategies: settings.strategies });
-    // One batch of each sample index's subpaths; the first holds the
-    // vertices connections take (`per_sample` ≤ TRACED_BATCH of them).
     // Where light subpaths go through glass and mirrors, where camera
     // paths look for what they focus (caustic_guide.rs): made before the
     // bins and the MIS scale, its subpaths on both threads.
@@ -355,6 +353,8 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     total.rays.bounce += guide_rays;
     total.caustic_guide = guide.as_ref().map(|g| g.summary());
     let guide_took = guide_started.elapsed();
+    // One batch of each sample index's subpaths; the first holds the
+    // vertices connections take (`per_sample` ≤ TRACED_BATCH of them).
     let trace_lights = |range: Range<u32>, batch: Range<u32>, mis_scale: f32| {
         let started = Instant::now();
         let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale, guide.as_ref());

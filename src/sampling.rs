@@ -80,6 +80,31 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, z)
 }
 
+/// 1 − cosθ (a cone's solid angle / 2π), formed as 2 sin²(θ/2) so that a
+/// cone of 0.01° is not lost to rounding.
+pub fn one_minus_cos(theta: f32) -> f32 {
+    let h = (0.5 * theta).sin();
+    2.0 * h * h
+}
+
+/// Solid-angle density of a direction drawn uniformly in a cone whose
+/// 1 − cosθmax is `one_minus_cos`.
+pub fn cone_pdf(one_minus_cos: f32) -> f32 {
+    1.0 / (2.0 * std::f32::consts::PI * one_minus_cos)
+}
+
+/// A direction uniformly in the cone about unit `axis` whose 1 − cosθmax
+/// is `one_minus_cos`: its sine from 1 − cosθ, which keeps a narrow
+/// cone's.
+pub fn cone_sample_within(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
+    // 1 − cosθ uniform in [0, 1 − cosθmax].
+    let omc = u.x * one_minus_cos;
+    let sin_t = (omc * (2.0 - omc)).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), 1.0 - omc);
+    Frame::from_normal(axis).to_world(local).normalize()
+}
+
 /// Uniform direction on the unit sphere; pdf = 1/(4π).
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;

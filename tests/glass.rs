@@ -354,6 +354,22 @@ fn transparent_glass_turns_the_world_seen_through_glass_into_alpha() {
     assert!(centre(&alpha) == 1.0, "glass rougher than the threshold: alpha {}", centre(&alpha));
 }
 
+/// Each channel's mean over `pixels`, render by render, of the renders
+/// `a` against `b`, each with its label: printed, and asserted to agree
+/// within 5 standard errors. The (mean, standard error) of each, channel
+/// by channel.
+fn assert_means_agree(what: &str, (a_label, a): (&str, &[Vec<Vec3>]), (b_label, b): (&str, &[Vec<Vec3>]), pixels: &[usize]) -> [((f64, f64), (f64, f64)); 3] {
+    let means = |imgs: &[Vec<Vec3>]| -> Vec<Vec3> { imgs.iter().map(|img| pixels.iter().map(|&i| img[i]).sum::<Vec3>() / pixels.len() as f32).collect() };
+    let (m_a, m_b) = (means(a), means(b));
+    std::array::from_fn(|c| {
+        let (x, sx) = mean_and_standard_error(&m_a.iter().map(|m| m[c]).collect::<Vec<_>>());
+        let (y, sy) = mean_and_standard_error(&m_b.iter().map(|m| m[c]).collect::<Vec<_>>());
+        println!("{what}, channel {c}: {a_label} {x:.5} ± {sx:.5}, {b_label} {y:.5} ± {sy:.5}");
+        assert!((x - y).abs() < 5.0 * (sx * sx + sy * sy).sqrt(), "{what}, channel {c}: {a_label} {x} ± {sx}, {b_label} {y} ± {sy}");
+        ((x, sx), (y, sy))
+    })
+}
+
 /// A sphere of radius 0.4 (smooth glass, or a mirror), 20 cm over a
 /// floor, under a square lamp of half-size `lamp_half` (radiance
 /// 1/lamp_half²) or a 5 cm `bulb` (a point or a spot shining down) above
@@ -422,20 +438,12 @@ fn light_paths_through_glass_keep_the_image_and_lower_the_caustics_noise() {
         // Camera paths alone take 8 times the samples, for a reference
         // whose standard error is within a few times the other's.
         let (on, off) = (renders(LightPaths::On, 1..9, 128), renders(LightPaths::Off, 11..19, 1024));
-        // Per render, each channel's mean over the image and the caustic.
-        let means = |imgs: &[Vec<Vec3>], pixels: &[usize]| -> Vec<Vec3> { imgs.iter().map(|img| pixels.iter().map(|&i| img[i]).sum::<Vec3>() / pixels.len() as f32).collect() };
         let all: Vec<usize> = (0..(w * h) as usize).collect();
         let mut variances = Vec::new();
         for (part, pixels) in [("image", &all), ("caustic", &caustic)] {
-            let (m_on, m_off) = (means(&on, pixels), means(&off, pixels));
-            for c in 0..3 {
-                let (a, sa) = mean_and_standard_error(&m_on.iter().map(|m| m[c]).collect::<Vec<_>>());
-                let (b, sb) = mean_and_standard_error(&m_off.iter().map(|m| m[c]).collect::<Vec<_>>());
-                println!("{what}, {part}, channel {c}: with light paths {a:.5} ± {sa:.5}, without {b:.5} ± {sb:.5}");
-                assert!((a - b).abs() < 5.0 * (sa * sa + sb * sb).sqrt(), "{what}, {part}, channel {c}: with light paths {a} ± {sa}, without {b} ± {sb}");
-                if part == "caustic" && c == 0 {
-                    variances.push((sa * sa, sb * sb));
-                }
+            let [((_, sa), (_, sb)), ..] = assert_means_agree(&format!("{what}, {part}"), ("with light paths", &on), ("without", &off), pixels);
+            if part == "caustic" {
+                variances.push((sa * sa, sb * sb));
             }
         }
         // Per sample, light subpaths' noise at most half: 21-50x less. A
@@ -528,17 +536,10 @@ fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_th
         // same image.
         assert!(render(&scene, &RenderSettings { seed: 7, ..s.clone() }, 1).0 == render(&scene, &RenderSettings { seed: 7, ..s.clone() }, 2).0, "{what}: one thread and two differ");
         let (on, off) = (renders(true, 1..33), renders(false, 101..133));
-        let means = |imgs: &[Vec<Vec3>], pixels: &[usize]| -> Vec<Vec3> { imgs.iter().map(|img| pixels.iter().map(|&i| img[i]).sum::<Vec3>() / pixels.len() as f32).collect() };
         let all: Vec<usize> = (0..(w * h) as usize).collect();
         let mut variances = (0.0, 0.0);
         for (part, pixels) in [("image", &all), ("ball", &ball)] {
-            let (m_on, m_off) = (means(&on, pixels), means(&off, pixels));
-            for c in 0..3 {
-                let (a, sa) = mean_and_standard_error(&m_on.iter().map(|m| m[c]).collect::<Vec<_>>());
-                let (b, sb) = mean_and_standard_error(&m_off.iter().map(|m| m[c]).collect::<Vec<_>>());
-                println!("{what}, {part}, channel {c}: with the guide {a:.5} ± {sa:.5}, without {b:.5} ± {sb:.5}");
-                assert!((a - b).abs() < 5.0 * (sa * sa + sb * sb).sqrt(), "{what}, {part}, channel {c}: with the guide {a} ± {sa}, without {b} ± {sb}");
-            }
+            assert_means_agree(&format!("{what}, {part}"), ("with the guide", &on), ("without", &off), pixels);
             if part == "ball" {
                 // Per pixel, the variance over the seeds, summed over the ball.
                 let spread = |imgs: &[Vec<Vec3>]| -> f64 {
