@@ -263,6 +263,30 @@ fn without_transmission_the_mixture_is_the_model_itself() {
     }
 }
 
+/// All glass, the mixture is the glass: a rough glass's sample keeps the
+/// glass's own f and pdf, which are those `evaluate` gives the mixture
+/// (its sampler no longer evaluates them a second time).
+#[test]
+fn all_glass_samples_carry_the_mixtures_f_and_pdf() {
+    let mut rng = Rng::new(17, 17);
+    for roughness in [0.1f32, 0.5, 1.0] {
+        let m = glass(Vec3::new(0.9, 0.7, 0.5), 0.0, roughness, 1.0, 1.45);
+        for theta in [0.0f32, 50.0, 85.0] {
+            let wo = dir_at(theta);
+            let bsdf = WithGlass::<PrincipledBsdf>::new(&m, wo);
+            let mut checked = 0;
+            for _ in 0..2000 {
+                let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { continue };
+                let (f, pdf) = bsdf.evaluate(wo, s.wi);
+                assert!((s.pdf - pdf).abs() <= 1e-5 * pdf && (s.f - f).abs().max_element() <= 1e-5 * f.max_element(), "r {roughness} θo {theta}: sample {:?}, evaluate {f} {pdf}", s);
+                assert!((s.weight - f * (s.wi.z.abs() / pdf)).abs().max_element() <= 1e-5 * s.weight.max_element());
+                checked += 1;
+            }
+            assert!(checked > 1000, "r {roughness} θo {theta}: {checked} samples");
+        }
+    }
+}
+
 /// Principled glass takes Cycles' weights: a half-metal glass reflects the
 /// metal's share and passes (1 − m) of the light, tinted by the base
 /// colour once each way through (√base per crossing).

@@ -73,32 +73,57 @@ fn glass_eta(s: &Surface) -> f32 {
     if s.ior < 1.0 { 1.0 / eta } else { eta }
 }
 
+/// What `WithGlass` knows of a surface before it knows wo: the base's
+/// own preparation for its share of the metal, and the glass's constants.
+/// Prepared once per material (render.rs), so that a floor in a scene
+/// with glass does not rebuild its base's lobes at every vertex.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedGlass<P> {
+    base: Option<P>,
+    glass: Option<TransmittingPart>,
+    /// t above.
+    share: f32,
+}
+
+/// The transmission part's constants (`Transmitting` less what depends
+/// on wo).
+#[derive(Clone, Copy, Debug)]
+enum TransmittingPart {
+    Glass { eta: f32, roughness: f32, tint: Vec3, multiscatter: bool, specular_tint: Vec3 },
+    Translucent(Vec3),
+}
+
 impl<B: Bsdf> WithGlass<B> {
     pub fn new(s: &Surface, wo: Vec3) -> Self {
+        <Self as Bsdf>::new(s, wo)
+    }
+}
+
+impl<B: Bsdf> Bsdf for WithGlass<B> {
+    type Prepared = PreparedGlass<B::Prepared>;
+    const GLASS: bool = true;
+    fn prepare(s: &Surface) -> Self::Prepared {
         let metallic = s.metallic.clamp(0.0, 1.0);
         let t = (1.0 - metallic) * s.transmission.clamp(0.0, 1.0);
         let base_color = s.base_color.clamp(Vec3::ZERO, Vec3::ONE);
         let glass = (t > 0.0).then(|| {
             if s.translucent {
-                Transmitting::Translucent(base_color)
+                TransmittingPart::Translucent(base_color)
             } else {
-                Transmitting::Glass(Dielectric::new(glass_eta(s), s.roughness, base_color.map(f32::sqrt), s.multiscatter, wo.z.clamp(0.0, 1.0)).with_specular_tint(s.specular_tint))
+                TransmittingPart::Glass { eta: glass_eta(s), roughness: s.roughness, tint: base_color.map(f32::sqrt), multiscatter: s.multiscatter, specular_tint: s.specular_tint }
             }
         });
-        let base = (t < 1.0).then(|| B::new(&Surface { metallic: metallic / (1.0 - t), transmission: 0.0, translucent: false, ..*s }, wo));
-        WithGlass { base, glass, glass_weight: t, glass_probability: t }
+        let base = (t < 1.0).then(|| B::prepare(&Surface { metallic: metallic / (1.0 - t), transmission: 0.0, translucent: false, ..*s }));
+        PreparedGlass { base, glass, share: t }
     }
-}
 
-impl<B: Bsdf> Bsdf for WithGlass<B> {
-    // The base's surface depends on the glass's share: nothing is shared.
-    type Prepared = Surface;
-    const GLASS: bool = true;
-    fn prepare(surface: &Surface) -> Surface {
-        *surface
-    }
-    fn at(surface: &Surface, wo: Vec3) -> Self {
-        WithGlass::new(surface, wo)
+    fn at(p: &Self::Prepared, wo: Vec3) -> Self {
+        let glass = p.glass.map(|part| match part {
+            TransmittingPart::Translucent(albedo) => Transmitting::Translucent(albedo),
+            TransmittingPart::Glass { eta, roughness, tint, multiscatter, specular_tint } => Transmitting::Glass(Dielectric::new(eta, roughness, tint, multiscatter, wo.z.clamp(0.0, 1.0)).with_specular_tint(specular_tint)),
+        });
+        let base = p.base.as_ref().map(|b| B::at(b, wo));
+        WithGlass { base, glass, glass_weight: p.share, glass_probability: p.share }
     }
 
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
@@ -145,8 +170,10 @@ impl<B: Bsdf> Bsdf for WithGlass<B> {
             (_, Some(b)) => (b.sample(wo, ((u_lobe - p) / (1.0 - p)).clamp(0.0, 1.0), u)?, 1.0 - self.glass_weight, 1.0 - p),
             _ => return None,
         };
-        if s.delta {
-            // No other part can produce a delta direction.
+        // No other part can produce a delta direction, and a surface with
+        // one part alone is that part: its sample's f and pdf are the
+        // mixture's.
+        if s.delta || self.glass.is_none() || self.base.is_none() {
             return Some(BsdfSample { f: s.f * weight, pdf: s.pdf * probability, weight: s.weight * (weight / probability), ..s });
         }
         let (f, pdf) = self.evaluate(wo, s.wi);
