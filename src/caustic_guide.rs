@@ -23,9 +23,11 @@
 //! The path's throughput divides by that mixture, while the MIS weights
 //! keep the BSDF's own density on every side, so that they still sum to 1
 //! over the strategies: the estimate stays unbiased, and what changes is
-//! which directions the samples take. Point and spot lights start the
-//! guide's subpaths unaimed (their start is `PunctualLight::start`'s):
-//! under a bulb it has fewer arrivals.
+//! which directions the samples take. Point and spot lights aim their
+//! subpaths at the same sphere (`PunctualLight::start_along`; a spot's
+//! that leave outside its cone carry nothing and end): a glass ball under
+//! a 5 cm bulb (tests/glass.rs) charted 1,336 directions in 479 cells
+//! where, left unaimed, the bulb's subpaths had charted 102 in 18.
 
 use crate::sampling::{cone_pdf, cone_sample_within, one_minus_cos, Frame};
 use crate::Vec3;
@@ -65,6 +67,12 @@ impl Aim {
     /// sphere. Below the face where the cone dips under it: the caller
     /// drops it.
     pub fn direction(&self, from: Vec3, normal: Vec3, u: Vec2) -> Option<Vec3> {
+        self.world_direction(from, u).map(|(world, _)| Frame::from_normal(normal).to_local(world))
+    }
+
+    /// A direction uniformly in the sphere's cone from `from`, in world
+    /// space, and the cone's density; None from inside the sphere.
+    pub fn world_direction(&self, from: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
         let to = self.centre - from;
         let d2 = to.length_squared();
         let s = self.radius * self.radius / d2;
@@ -73,8 +81,7 @@ impl Aim {
         }
         // 1 − cos of the cone's half-angle, without cancellation.
         let one_minus_cos_max = s / (1.0 + (1.0 - s).sqrt());
-        let world = cone_sample_within(to / d2.sqrt(), one_minus_cos_max, u);
-        Some(Frame::from_normal(normal).to_local(world))
+        Some((cone_sample_within(to / d2.sqrt(), one_minus_cos_max, u), cone_pdf(one_minus_cos_max)))
     }
 }
 

@@ -904,7 +904,7 @@ impl Lights {
         }
         let (pick, u_face) = self.distribution.sample_remapped(u_pick);
         let Some(&triangle) = self.triangles.get(pick) else {
-            return self.point_start(scene, pick - self.triangles.len(), u_point, u_dir).map(Start::Point);
+            return self.point_start(scene, pick - self.triangles.len(), u_point, u_dir, aim).map(Start::Point);
         };
         let tri = &scene.triangles[triangle as usize];
         let m = &scene.materials[tri.material as usize];
@@ -926,11 +926,18 @@ impl Lights {
         Some(Start::Emitter(EmissionSample { triangle, origin, normal, dir: Frame::from_normal(normal).to_world(local), le, density: self.emission_density(m) * weight }))
     }
 
-    /// `sample_start` from punctual light `index`.
-    fn point_start(&self, scene: &Scene, index: usize, u_point: Vec2, u_dir: Vec2) -> Option<PointEmission> {
+    /// `sample_start` from punctual light `index`; with `aim`, toward the
+    /// aim's sphere (what it carries is then not an estimate).
+    fn point_start(&self, scene: &Scene, index: usize, u_point: Vec2, u_dir: Vec2, aim: Option<&Aim>) -> Option<PointEmission> {
         let light = scene.punctual.get(index)?;
         let probability = self.point_start_probability(scene, index);
-        let start = light.start(u_point, u_dir)?;
+        let start = match aim {
+            Some(aim) if light.kind != crate::punctual::PunctualKind::Sun => {
+                let (dir, pdf_dir) = aim.world_direction(light.position, u_dir)?;
+                light.start_along(u_point, dir, pdf_dir)
+            }
+            _ => light.start(u_point, u_dir)?,
+        };
         let alpha = start.intensity / (probability * start.pdf_dir);
         (alpha.is_finite() && alpha != Vec3::ZERO).then_some(PointEmission { index: index as u32, origin: start.origin, dir: start.dir, alpha, probability, pdf_dir: start.pdf_dir })
     }

@@ -171,8 +171,15 @@ impl PunctualLight {
             PunctualKind::Spot { cos_outer, .. } => cone_sample_within(self.direction, 1.0 - cos_outer, u_dir),
             PunctualKind::Sun => return None,
         };
+        Some(self.start_along(u_point, dir, self.start_pdf(-dir)))
+    }
+
+    /// A start leaving along unit `dir`, drawn with density `pdf_dir`
+    /// (`start`'s, or the caustic guide's cone toward the glass: a spot's
+    /// light outside its cone is then zero). Not for a sun.
+    pub fn start_along(&self, u_point: Vec2, dir: Vec3, pdf_dir: f32) -> Start {
         let origin = if self.size > 0.0 { self.position + Frame::from_normal(dir).to_world(Vec3::from((concentric_disk(u_point) * self.size).extend(0.0))) } else { self.position };
-        Some(Start { origin, dir, intensity: self.intensity * self.cone(-dir), pdf_dir: self.start_pdf(-dir) })
+        Start { origin, dir, intensity: self.intensity * self.cone(-dir), pdf_dir }
     }
 
     /// What `start`'s density toward a point at squared distance `d2` is
