@@ -177,12 +177,20 @@ impl<'a> Context<'a> {
     /// mirrors) their light meets before anything else
     /// (light_paths.rs, `DeltaStart`), and camera paths weigh the light
     /// their BSDF samples reach through such lobes against them
-    /// (`Through`): where some surface may have a delta lobe, and not
-    /// where glass absorbs, whose light neither side's weights follow
-    /// into the medium.
+    /// (`Through`): where some surface may have a delta lobe. Through
+    /// absorbing glass the subpaths keep what the medium leaves
+    /// (`Media`), which starts empty at their lights: none lies inside
+    /// one (`emitters_in_media`).
     #[inline]
     pub(crate) fn delta_starts(&self) -> bool {
-        self.features.delta_lobes && self.features.absorbing == 0
+        self.features.delta_lobes && !self.emitters_in_media
+    }
+
+    /// Whether the scene has absorbing glass and a kernel for it, whose
+    /// paths keep their media (media.rs).
+    #[inline]
+    pub(crate) fn absorbs<B: Bsdf>(&self) -> bool {
+        B::GLASS && self.features.absorbing > 0
     }
 
     /// The caustic guide of `count` subpaths of depth up to `max_depth`
@@ -1368,7 +1376,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
     // The absorbing media the ray travels in (media.rs): none for the
     // camera's, and always none in a scene without them (a kernel without
     // glass has no code for them).
-    let absorbing = B::GLASS && ctx.features.absorbing > 0;
+    let absorbing = ctx.absorbs::<B>();
     let mut media = Media::default();
     // The kind of the ray after a bounce (Blender's Ray Visibility).
     let mut scattered = Rays::NONE;
@@ -1530,6 +1538,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         }
         let Some(Step { sample: s, wi, origin, beta: next_beta }) = step else { break };
         beta = next_beta;
+        // Light subpaths store no vertex inside an absorbing medium
+        // (light_paths.rs): neither is one a y1 here.
+        let outside_media = media.is_empty();
         if let Some(sides) = &sides {
             media = *sides.toward(wi.dot(si.ng));
         }
@@ -1567,6 +1578,8 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         if delta_starts {
             through = if s.delta {
                 through.map(|t| t.passing(s.wi.z < 0.0))
+            } else if !outside_media {
+                None
             } else {
                 // This vertex as the y1 of subpaths through the lobes
                 // ahead: z = x1 for light tracing alone, or a vertex the

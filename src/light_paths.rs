@@ -39,7 +39,8 @@
 //! Glass and delta lobes end a subpath and a camera path's chain alike:
 //! the strategies through them stay the camera path's alone — except the
 //! delta lobes a subpath meets before any other sample (`DeltaStart`):
-//! it goes on through them, so that light a glass sphere focuses onto the
+//! it goes on through them (absorbed by the media they let it into,
+//! storing no vertex inside one), so that light a glass sphere focuses onto the
 //! floor lands there in proportion to it, and a camera path's BSDF sample
 //! through the same lobes to the light weighs itself against that
 //! (integrator.rs, `Through`). A camera
@@ -65,6 +66,7 @@ use crate::integrator::{bsdf_at, bsdf_on, surface_facing, RayCounts, same_side, 
 use crate::scene::Scene;
 use crate::shading::Barycentric;
 use crate::material::Surface;
+use crate::media::{transmittance, Media, Sides};
 use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::traversal_bench::RayKind;
@@ -776,10 +778,16 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], aim: O
     // While every sample so far was a delta lobe's.
     let mut through_delta = ctx.delta_starts() && delta_start.reached;
     let mut throughput = Vec3::ONE;
+    // The absorbing media the subpath is in (media.rs): none at its light
+    // (Context::delta_starts), and only glass, which it passes through
+    // delta lobes alone, changes them.
+    let absorbing = ctx.absorbs::<B>();
+    let mut media = Media::default();
     loop {
-        // A surface inside the glass (an odd number of refractions) is
-        // left out with what lies beyond it.
-        let inside = through_delta && delta_start.refractions % 2 == 1;
+        // A surface inside the glass (an odd number of refractions, or in
+        // a medium) is left out with what lies beyond it; a camera path's
+        // weights leave it out alike (integrator.rs, `Through`).
+        let inside = through_delta && (delta_start.refractions % 2 == 1 || !media.is_empty());
         let stored = carries_light_paths(&v.hit.surface) && !inside;
         if stored {
             if !vertex(&v, rng, rays) {
@@ -816,6 +824,10 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], aim: O
             let (f, pdf_camera) = bsdf_at::<B>(prepared, &v.hit, &frame, s.wi).evaluate(s.wi, wo);
             (f * (wo.z * cos_out / (cos_in * s.pdf)), pdf_camera)
         };
+        if absorbing {
+            let own = ctx.scene.triangles[v.hit.triangle as usize].material;
+            media = *Sides::at(&media, &ctx.scene.materials, own, v.hit.material, v.hit.front_face).toward(w.dot(v.hit.ng));
+        }
         throughput *= factor;
         let mut alpha = v.alpha * factor;
         if v.depth >= RR_START_DEPTH {
@@ -828,6 +840,10 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], aim: O
         }
         *rays += 1;
         let Some(hit) = ctx.intersect(v.hit.spawn_origin(w), w, RayKind::Bounce, rng) else { return };
+        if absorbing {
+            let kept = transmittance(media.sigma, hit.t);
+            (throughput, alpha) = (throughput * kept, alpha * kept);
+        }
         let (si, ns) = SurfaceHit::with_normal(ctx.scene, &hit, w, rng);
         let cos_next = -w.dot(si.ng);
         let t2 = hit.t * hit.t;

@@ -374,7 +374,7 @@ impl Material {
     /// to focus it into caustics, which light subpaths find and camera
     /// paths rarely do (light_paths.rs): a GGX lobe (metal or specular
     /// layer) whose roughness, its texture's smallest texel counted, is
-    /// below `FOCUSING_ROUGHNESS`; or smooth glass that does not absorb,
+    /// below `FOCUSING_ROUGHNESS`; or smooth glass, absorbing or not,
     /// through which light subpaths go on from their emitter
     /// (light_paths.rs, `DeltaStart`; rough glass ends them).
     /// `smallest_roughness_texel` gives an image's smallest G (roughness)
@@ -382,7 +382,7 @@ impl Material {
     /// that a caller can scan each image once (`Image::smallest`).
     pub fn focuses_light(&self, smallest_roughness_texel: impl FnOnce(u32) -> f32) -> bool {
         let textures = self.textures.as_deref();
-        if !self.lamp && self.is_transmissive() && !self.translucent && self.absorption == Vec3::ZERO && is_smooth(self.roughness) {
+        if !self.lamp && self.is_transmissive() && !self.translucent && is_smooth(self.roughness) {
             return true;
         }
         let somewhere_opaque = self.transmission <= 0.0 || textures.is_some_and(|t| t.transmission.is_some());
@@ -408,8 +408,8 @@ impl Material {
     /// lamp: a surface that focuses an emitter's light into a caustic
     /// only light subpaths through delta lobes carry (caustic_guide.rs).
     pub fn throws_caustics(&self) -> bool {
-        let clear_glass = self.is_transmissive() && !self.translucent && self.absorption == Vec3::ZERO;
-        !self.lamp && is_smooth(self.roughness) && (clear_glass || self.metallic >= 0.5)
+        let glass = self.is_transmissive() && !self.translucent;
+        !self.lamp && is_smooth(self.roughness) && (glass || self.metallic >= 0.5)
     }
 
     /// Whether a clear coat lies over it.
@@ -567,7 +567,7 @@ mod tests {
         assert!(!material(0.0, 0.0, 0.0).focuses_light(smallest_in(&[])), "Lambert (specular 0), however smooth");
         assert!(Material { transmission: 1.0, ..material(0.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "smooth glass: light subpaths go through");
         assert!(!Material { transmission: 1.0, ..material(0.0, 0.2, 1.0) }.focuses_light(smallest_in(&[])), "rough glass: light subpaths stop there");
-        assert!(!Material { transmission: 1.0, absorption: Vec3::ONE, ..material(0.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "absorbing glass");
+        assert!(Material { transmission: 1.0, absorption: Vec3::ONE, ..material(0.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "absorbing glass: light subpaths go through, absorbed");
         assert!(!Material { lamp: true, ..material(1.0, 0.0, 1.0) }.focuses_light(smallest_in(&[])), "a lamp is not a surface");
     }
 

@@ -49,6 +49,12 @@ impl Media {
     /// Media a path keeps at once; one entered beyond them is left out.
     pub const DEPTH: usize = 4;
 
+    /// In no absorbing medium.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
     /// The media past a surface the path crosses, into its mesh through a
     /// front face or out of it through a back face: the mesh's material
     /// `index` names the medium, and `shading`, the material that shades
@@ -123,23 +129,25 @@ pub fn absorbs(m: &Material) -> bool {
 }
 
 /// Whether some of the emitting triangles `emitters` lies inside an
-/// absorbing medium, or is absorbing glass itself. From each one's
-/// centroid a ray along one fixed direction finds the nearest absorbing
-/// glass; meeting it from behind (a closed mesh's inside is behind its
-/// faces), the emitter is inside. One ray an emitter, at load, and only
-/// in a scene with absorbing glass.
+/// absorbing medium, or is absorbing glass itself, or some point or spot
+/// light does (a sun is outside everything). From each one's centroid
+/// (a light's position) a ray along one fixed direction finds the
+/// nearest absorbing glass; meeting it from behind (a closed mesh's
+/// inside is behind its faces), the emitter is inside. One ray an
+/// emitter, at load, and only in a scene with absorbing glass.
 pub fn emitters_inside(scene: &Scene, surfaces: &Accel, emitters: &[u32]) -> bool {
     let absorbing = |triangle: u32| absorbs(scene.material_of(triangle));
     // Off every axis, so that it does not run along a box's faces.
     let dir = Vec3::new(0.2673, 0.5345, 0.8018);
-    emitters.iter().any(|&e| {
-        if absorbing(e) {
-            return true;
-        }
-        let [a, b, c] = scene.triangles[e as usize].p();
-        let hit = surfaces.intersect_where((a + b + c) / 3.0, dir, f32::INFINITY, |t, _, _, _| absorbing(t));
+    let inside = |p: Vec3| {
+        let hit = surfaces.intersect_where(p, dir, f32::INFINITY, |t, _, _, _| absorbing(t));
         hit.is_some_and(|h| scene.triangles[h.triangle as usize].cross().dot(dir) > 0.0)
-    })
+    };
+    let bulbs = scene.punctual.iter().filter(|l| l.kind != crate::punctual::PunctualKind::Sun);
+    emitters.iter().any(|&e| {
+        let [a, b, c] = scene.triangles[e as usize].p();
+        absorbing(e) || inside((a + b + c) / 3.0)
+    }) || bulbs.map(|l| l.position).any(inside)
 }
 
 #[cfg(test)]
