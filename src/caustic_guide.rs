@@ -12,7 +12,7 @@
 //! The light subpaths know those directions: each that went through delta
 //! lobes alone and landed on a surface arrived along one. Before a render
 //! a few thousand subpaths are traced (light_paths.rs, `caustic_arrivals`),
-//! aimed at the sphere around the glass and mirrors (`Aim`: a subpath
+//! aimed at spheres around the glass and mirrors (`Aim`: a subpath
 //! leaving a lamp by the cosine meets a glass ball a few metres away a few
 //! times in a hundred); where they arrived beyond delta lobes alone is
 //! binned in a grid of cells, each arrival with the direction back along
@@ -42,40 +42,115 @@ pub const CONE: f32 = 0.2;
 const PER_CELL: usize = 32;
 const TARGET_PER_CELL: f32 = 12.0;
 
-/// The sphere around the scene's smooth glass and mirrors
+/// Spheres around the scene's smooth glass and mirrors
 /// (`Material::throws_caustics`), which the guide's subpaths leave their
-/// lamps toward.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// lamps toward: one around each object (its triangles joined through
+/// shared corners, `scene::joined_parts`), so that a glass on a table and
+/// a window pane across the room are each aimed at, not the room between
+/// them; past `MAX_SPHERES` objects, one around those whose centres share
+/// an octant of the box around them all.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Aim {
+    spheres: Vec<Sphere>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Sphere {
     centre: Vec3,
     radius: f32,
 }
 
+/// Spheres an `Aim` keeps at most.
+const MAX_SPHERES: usize = 8;
+
 impl Aim {
-    /// The sphere around every triangle whose material throws caustics;
+    /// The spheres around the objects whose material throws caustics;
     /// None where there is none.
     pub fn toward_caustics(scene: &crate::scene::Scene) -> Option<Self> {
-        let targets = scene.triangles.iter().filter(|t| scene.materials[t.material as usize].throws_caustics());
-        let (lo, hi) = targets.clone().flat_map(|t| t.p()).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
-        let centre = (lo + hi) * 0.5;
-        let radius = targets.flat_map(|t| t.p()).map(|p| p.distance(centre)).fold(0.0f32, f32::max);
-        (centre.is_finite() && radius.is_finite() && radius > 0.0).then_some(Aim { centre, radius })
+        let targets: Vec<u32> = (0..scene.triangles.len() as u32).filter(|&t| scene.material_of(t).throws_caustics()).collect();
+        if targets.is_empty() {
+            return None;
+        }
+        let parts = crate::scene::joined_parts(scene, &targets);
+        let mut boxes = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); targets.len()];
+        for (&t, &part) in targets.iter().zip(&parts) {
+            let b = &mut boxes[part as usize];
+            for p in scene.triangles[t as usize].p() {
+                *b = (b.0.min(p), b.1.max(p));
+            }
+        }
+        let roots: Vec<usize> = (0..targets.len()).filter(|&k| parts[k] as usize == k).collect();
+        // Each object its own group, or, past MAX_SPHERES, the octant of
+        // the whole box its box's centre lies in.
+        let (lo, hi) = roots.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &r| (lo.min(boxes[r].0), hi.max(boxes[r].1)));
+        let middle = (lo + hi) * 0.5;
+        let group_of_root = |r: usize| -> usize {
+            if roots.len() <= MAX_SPHERES {
+                roots.binary_search(&r).unwrap_or(0)
+            } else {
+                let c = (boxes[r].0 + boxes[r].1) * 0.5;
+                (c.x > middle.x) as usize | ((c.y > middle.y) as usize) << 1 | ((c.z > middle.z) as usize) << 2
+            }
+        };
+        let groups = roots.len().min(MAX_SPHERES);
+        let mut group_boxes = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); groups];
+        for &r in &roots {
+            let g = &mut group_boxes[group_of_root(r)];
+            *g = (g.0.min(boxes[r].0), g.1.max(boxes[r].1));
+        }
+        let centres: Vec<Vec3> = group_boxes.iter().map(|(lo, hi)| (*lo + *hi) * 0.5).collect();
+        let mut radii = vec![0.0f32; groups];
+        for (&t, &part) in targets.iter().zip(&parts) {
+            let g = group_of_root(part as usize);
+            for p in scene.triangles[t as usize].p() {
+                radii[g] = radii[g].max(p.distance(centres[g]));
+            }
+        }
+        let spheres: Vec<Sphere> = centres.into_iter().zip(radii).map(|(centre, radius)| Sphere { centre, radius }).filter(|s| s.centre.is_finite() && s.radius.is_finite() && s.radius > 0.0).collect();
+        (!spheres.is_empty()).then_some(Aim { spheres })
     }
 
-    /// A direction uniformly in the sphere's cone from `from`, in the
-    /// frame of unit normal `normal` (z along it); None from inside the
+    /// A direction uniformly in one sphere's cone from `from`, in the
+    /// frame of unit normal `normal` (z along it); None from inside every
     /// sphere. Below the face where the cone dips under it: the caller
     /// drops it.
     pub fn direction(&self, from: Vec3, normal: Vec3, u: Vec2) -> Option<Vec3> {
         self.world_direction(from, u).map(|(world, _)| Frame::from_normal(normal).to_local(world))
     }
 
-    /// A direction uniformly in the sphere's cone from `from`, in world
-    /// space, and the cone's density; None from inside the sphere.
+    /// A direction uniformly in one sphere's cone from `from`, in world
+    /// space, and that cone's density; the sphere picked by the solid
+    /// angle it covers (about r²/d²), with `u.x`, rescaled, left to the
+    /// cone. None from inside every sphere.
     pub fn world_direction(&self, from: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
-        let to = self.centre - from;
+        let (sphere, u) = match self.spheres.as_slice() {
+            [one] => (one, u),
+            spheres => {
+                let weight = |s: &Sphere| {
+                    let d2 = (s.centre - from).length_squared();
+                    if d2 > s.radius * s.radius { s.radius * s.radius / d2 } else { 0.0 }
+                };
+                let total: f32 = spheres.iter().map(weight).sum();
+                if !(total > 0.0 && total.is_finite()) {
+                    return None;
+                }
+                let mut rest = u.x * total;
+                let mut picked = (spheres.last()?, 0.0, 1.0);
+                for s in spheres {
+                    let w = weight(s);
+                    if rest < w {
+                        picked = (s, rest, w);
+                        break;
+                    }
+                    rest -= w;
+                }
+                let (s, rest, w) = picked;
+                (s, Vec2::new((rest / w).clamp(0.0, 1.0 - f32::EPSILON), u.y))
+            }
+        };
+        let to = sphere.centre - from;
         let d2 = to.length_squared();
-        let s = self.radius * self.radius / d2;
+        let s = sphere.radius * sphere.radius / d2;
         if !(s < 1.0) {
             return None;
         }
@@ -202,7 +277,65 @@ impl CausticGuide {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::material::Material;
     use crate::rng::Rng;
+    use crate::scene::{Scene, Triangle};
+
+    /// Smooth glass cubes of edge 0.2 m at `centres` (their corners shared
+    /// within each), over a matte floor.
+    fn glass_cubes(centres: &[Vec3]) -> Scene {
+        let floor = [Vec3::new(-50.0, -1.0, -50.0), Vec3::new(50.0, -1.0, -50.0), Vec3::new(50.0, -1.0, 50.0), Vec3::new(-50.0, -1.0, 50.0)];
+        let mut triangles = vec![Triangle::new([floor[0], floor[2], floor[1]], [Vec3::Y; 3], 0), Triangle::new([floor[0], floor[3], floor[2]], [Vec3::Y; 3], 0)];
+        for &c in centres {
+            let corner = |i: usize| c + 0.1 * Vec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 });
+            for [a, b, d, e] in [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]] {
+                triangles.push(Triangle::new([corner(a), corner(b), corner(d)], [Vec3::ZERO; 3], 1));
+                triangles.push(Triangle::new([corner(a), corner(d), corner(e)], [Vec3::ZERO; 3], 1));
+            }
+        }
+        let materials = vec![Material { metallic: 0.0, ..Material::default() }, Material { metallic: 0.0, roughness: 0.0, transmission: 1.0, ..Material::default() }];
+        let camera = crate::camera::Camera::from_world("c".into(), &glam::Mat4::from_translation(glam::Vec3::new(0.0, 1.0, 3.0)), 1.0, None).unwrap();
+        Scene::new(triangles, materials, camera)
+    }
+
+    /// Two glass cubes 10 m apart are aimed at each alone, and from a
+    /// point 1 m from one and about 10 m from the other the draws go to
+    /// each by the solid angle it covers (about 100 : 1), every one inside
+    /// its cube's cone. Past `MAX_SPHERES` cubes (twenty in a row), eight
+    /// spheres at most still hold every cube.
+    #[test]
+    fn each_object_is_aimed_at_apart() {
+        let (near, far) = (Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0));
+        let aim = Aim::toward_caustics(&glass_cubes(&[near, far])).unwrap();
+        assert_eq!(aim.spheres.len(), 2, "{aim:?}");
+        assert!(aim.spheres.iter().all(|s| s.radius < 0.18), "{aim:?}");
+        let from = Vec3::new(0.0, 1.0, 0.0);
+        let mut rng = Rng::new(3, 0);
+        let mut toward_near = 0;
+        let n = 20_000;
+        for _ in 0..n {
+            let (d, pdf) = aim.world_direction(from, rng.next_2d()).unwrap();
+            assert!(pdf > 0.0 && pdf.is_finite() && (d.length() - 1.0).abs() < 1e-5);
+            let hits = |c: Vec3| {
+                let t = (c - from).dot(d);
+                (from + d * t).distance(c) <= 0.18
+            };
+            assert!(hits(near) || hits(far), "{d}");
+            toward_near += hits(near) as usize;
+        }
+        let (w_near, w_far) = (0.173f32.powi(2) / 1.0, 0.173f32.powi(2) / 101.0);
+        let expected = w_near / (w_near + w_far);
+        assert!((toward_near as f32 / n as f32 - expected).abs() < 0.005, "{toward_near} of {n}, expected {expected}");
+        // Inside every sphere, no direction.
+        assert!(Aim::toward_caustics(&glass_cubes(&[near])).unwrap().world_direction(near, Vec2::splat(0.5)).is_none());
+        let row: Vec<Vec3> = (0..20).map(|i| Vec3::new(i as f32, 0.0, (i % 3) as f32)).collect();
+        let aim = Aim::toward_caustics(&glass_cubes(&row)).unwrap();
+        assert!(aim.spheres.len() <= MAX_SPHERES && aim.spheres.len() >= 2, "{}", aim.spheres.len());
+        for c in &row {
+            let corners = (0..8).map(|i| *c + 0.1 * Vec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 }));
+            assert!(aim.spheres.iter().any(|s| corners.clone().all(|p| s.centre.distance(p) <= s.radius * (1.0 + 1e-5))), "{c} in none of {aim:?}");
+        }
+    }
 
     fn arrivals(n: usize) -> Vec<Arrival> {
         let mut rng = Rng::new(5, 0);

@@ -601,44 +601,22 @@ fn suns_irradiance(ctx: &Context, suns: &[&crate::punctual::PunctualLight], si: 
 /// For each of the `emitting` scene triangles (the lights' emitters, which
 /// light subpaths start from), the size of the surface it belongs to (0
 /// for the other triangles): the diagonal of the box around the emitting
-/// triangles joined to it through shared corners (the same
-/// position, to the bit), so that a lamp's size does not depend on how
-/// finely it is tessellated. A corner shared with another lamp joins the
-/// two. About 0.3 µs per emitting triangle (489k in 0.16 s), against the
-/// light tree's 1.1 µs per light; computed once, and only for `auto`
-/// where no surface focuses light.
+/// triangles joined to it through shared corners (`scene::joined_parts`),
+/// so that a lamp's size does not depend on how finely it is tessellated.
+/// A corner shared with another lamp joins the two. Computed once, and
+/// only for `auto` where no surface focuses light.
 fn emitter_sizes(scene: &Scene, emitting: &[u32]) -> Vec<f32> {
-    let mut corners: Vec<([u32; 3], u32)> = emitting
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(k, &t)| scene.triangles[t as usize].p().map(|p| ([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()], k as u32)))
-        .collect();
-    corners.par_sort_unstable();
-    // Union–find over `emitting`: triangles with a corner in common join.
-    let mut parent: Vec<u32> = (0..emitting.len() as u32).collect();
-    fn root(parent: &mut [u32], mut i: u32) -> u32 {
-        while parent[i as usize] != i {
-            parent[i as usize] = parent[parent[i as usize] as usize];
-            i = parent[i as usize];
-        }
-        i
-    }
-    for pair in corners.windows(2) {
-        if pair[0].0 == pair[1].0 {
-            let (a, b) = (root(&mut parent, pair[0].1), root(&mut parent, pair[1].1));
-            parent[a as usize] = b;
-        }
-    }
+    let parts = crate::scene::joined_parts(scene, emitting);
     let mut bounds = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); emitting.len()];
     for (k, &t) in emitting.iter().enumerate() {
-        let b = &mut bounds[root(&mut parent, k as u32) as usize];
+        let b = &mut bounds[parts[k] as usize];
         for p in scene.triangles[t as usize].p() {
             *b = (b.0.min(p), b.1.max(p));
         }
     }
     let mut sizes = vec![0.0; scene.triangles.len()];
     for (k, &t) in emitting.iter().enumerate() {
-        let (lo, hi) = bounds[root(&mut parent, k as u32) as usize];
+        let (lo, hi) = bounds[parts[k] as usize];
         sizes[t as usize] = (hi - lo).length();
     }
     sizes

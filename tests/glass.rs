@@ -561,7 +561,8 @@ fn light_paths_through_glass_keep_the_image_at_every_scale() {
 /// and under a spot whose cone (25° off its axis) takes in part of the
 /// ball, which lies 13–53° off it (the guide's
 /// subpaths aimed at the ball from outside it carry nothing), an
-/// absorbing glass ball, and the mirror ball.
+/// absorbing glass ball, the glass ball with another 4.6 m away (each
+/// aimed at apart), and the mirror ball.
 #[test]
 fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_the_ball() {
     use glint::render::LightPaths;
@@ -569,9 +570,20 @@ fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_th
     use glint::punctual::{PunctualKind, PunctualLight};
     let spot = PunctualLight::spot(25f32.to_radians(), 15f32.to_radians());
     let (clear, amber) = (Vec3::ZERO, Vec3::new(0.5, 1.5, 3.0));
-    for (what, mirror, scale, bulb, absorption) in [("glass ball", false, 1.0f32, None, clear), ("mirror ball", true, 1.0, None, clear), ("glass ball at 1/1000", false, 1e-3, None, clear), ("glass ball under a bulb", false, 1.0, Some(PunctualKind::Point), clear), ("glass ball under a spot", false, 1.0, Some(spot), clear), ("absorbing glass ball", false, 1.0, None, amber)] {
+    for (what, mirror, scale, bulb, absorption, far_ball) in [
+        ("glass ball", false, 1.0f32, None, clear, false),
+        ("mirror ball", true, 1.0, None, clear, false),
+        ("glass ball at 1/1000", false, 1e-3, None, clear, false),
+        ("glass ball under a bulb", false, 1.0, Some(PunctualKind::Point), clear, false),
+        ("glass ball under a spot", false, 1.0, Some(spot), clear, false),
+        ("absorbing glass ball", false, 1.0, None, amber, false),
+        ("glass ball and another 4.6 m away", false, 1.0, None, clear, true),
+    ] {
         let mut scene = ball_over_floor(bulb, mirror, 0.1, scale);
         scene.materials[1].absorption = absorption;
+        if far_ball {
+            scene.triangles.extend(sphere(Vec3::new(-3.5, 0.6, -3.0), 0.4, 32, 64, 1));
+        }
         let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(w, h, 64, 8, 0) };
         let renders = |caustic_guide: bool, seeds: std::ops::Range<u64>| -> Vec<Vec<Vec3>> {
             seeds
@@ -582,7 +594,8 @@ fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_th
                         // Aimed at the ball, lamp and bulb alike chart
                         // 1,300–1,500 directions, the spot, which lights
                         // part of it, 373 (the bulb's subpaths, unaimed,
-                        // had charted 102).
+                        // had charted 102; aimed at one sphere around
+                        // both balls, the lamp's 102).
                         assert!(stats.caustic_guide.is_some_and(|(directions, _, _)| directions > 300), "{what}: {:?}", stats.caustic_guide);
                     }
                     img
