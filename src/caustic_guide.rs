@@ -24,7 +24,7 @@
 //! keep the BSDF's own density on every side, so that they still sum to 1
 //! over the strategies: the estimate stays unbiased, and what changes is
 //! which directions the samples take. Point and spot lights aim their
-//! subpaths at the same sphere (`PunctualLight::start_along`; a spot's
+//! subpaths at the same spheres (`PunctualLight::start_along`; a spot's
 //! that leave outside its cone carry nothing and end): a glass ball under
 //! a 5 cm bulb (tests/glass.rs) charted 1,336 directions in 479 cells
 //! where, left unaimed, the bulb's subpaths had charted 102 in 18.

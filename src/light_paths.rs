@@ -734,7 +734,7 @@ impl DeltaStart {
 
 /// Traces one subpath, handing each vertex to `vertex` as it is made,
 /// and going on while `vertex` says so. With `aim` it leaves an emitter
-/// toward the aim's sphere (`Lights::sample_start`): what it carries is
+/// toward one of the aim's spheres (`Lights::sample_start`): what it carries is
 /// then not an estimate, and only where it goes counts (caustic_guide.rs).
 /// Until the subpath's first sample that is not from a delta lobe it goes
 /// on through glass and mirrors (`DeltaStart`), where light would

@@ -927,7 +927,7 @@ impl Lights {
     }
 
     /// `sample_start` from punctual light `index`; with `aim`, toward the
-    /// aim's sphere (what it carries is then not an estimate).
+    /// aim's spheres (what it carries is then not an estimate).
     fn point_start(&self, scene: &Scene, index: usize, u_point: Vec2, u_dir: Vec2, aim: Option<&Aim>) -> Option<PointEmission> {
         let light = scene.punctual.get(index)?;
         let probability = self.point_start_probability(scene, index);
