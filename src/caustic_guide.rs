@@ -281,13 +281,18 @@ mod tests {
     use crate::rng::Rng;
     use crate::scene::{Scene, Triangle};
 
+    /// Corner `i` (bits x, y, z) of the cube of edge 0.2 m about `c`.
+    fn cube_corner(c: Vec3, i: usize) -> Vec3 {
+        c + 0.1 * Vec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 })
+    }
+
     /// Smooth glass cubes of edge 0.2 m at `centres` (their corners shared
     /// within each), over a matte floor.
     fn glass_cubes(centres: &[Vec3]) -> Scene {
         let floor = [Vec3::new(-50.0, -1.0, -50.0), Vec3::new(50.0, -1.0, -50.0), Vec3::new(50.0, -1.0, 50.0), Vec3::new(-50.0, -1.0, 50.0)];
         let mut triangles = vec![Triangle::new([floor[0], floor[2], floor[1]], [Vec3::Y; 3], 0), Triangle::new([floor[0], floor[3], floor[2]], [Vec3::Y; 3], 0)];
         for &c in centres {
-            let corner = |i: usize| c + 0.1 * Vec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 });
+            let corner = |i: usize| cube_corner(c, i);
             for [a, b, d, e] in [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]] {
                 triangles.push(Triangle::new([corner(a), corner(b), corner(d)], [Vec3::ZERO; 3], 1));
                 triangles.push(Triangle::new([corner(a), corner(d), corner(e)], [Vec3::ZERO; 3], 1));
@@ -332,7 +337,7 @@ mod tests {
         let aim = Aim::toward_caustics(&glass_cubes(&row)).unwrap();
         assert!(aim.spheres.len() <= MAX_SPHERES && aim.spheres.len() >= 2, "{}", aim.spheres.len());
         for c in &row {
-            let corners = (0..8).map(|i| *c + 0.1 * Vec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 }));
+            let corners = (0..8).map(|i| cube_corner(*c, i));
             assert!(aim.spheres.iter().any(|s| corners.clone().all(|p| s.centre.distance(p) <= s.radius * (1.0 + 1e-5))), "{c} in none of {aim:?}");
         }
     }

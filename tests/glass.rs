@@ -10,6 +10,11 @@ use glint::material::Material;
 use glint::render::RenderSettings;
 use glint::scene::{Scene, Triangle};
 
+/// σ_a per metre of the amber glass ball over a floor: the 0.8 m ball
+/// keeps e^-0.4, e^-1.2 and e^-2.4 of what crosses its middle, a yellow
+/// caustic.
+const AMBER: Vec3 = Vec3::new(0.5, 1.5, 3.0);
+
 /// A UV sphere of radius r about c, smooth normals, front faces outward.
 fn sphere(c: Vec3, r: f32, rings: usize, segments: usize, material: u32) -> Vec<Triangle> {
     let at = |i: usize, j: usize| {
@@ -462,10 +467,7 @@ fn light_paths_through_glass_keep_the_image_and_lower_the_caustics_noise() {
     let (w, h) = (32u32, 32u32);
     use glint::punctual::{PunctualKind, PunctualLight};
     let spot = PunctualLight::spot(60f32.to_radians(), 45f32.to_radians());
-    let clear = Vec3::ZERO;
-    // σ_a per metre: the 0.8 m ball keeps e^-0.4, e^-1.2 and e^-2.4 of
-    // what crosses its middle, a yellow caustic.
-    let amber = Vec3::new(0.5, 1.5, 3.0);
+    let (clear, amber) = (Vec3::ZERO, AMBER);
     for (what, lamp_half, bulb, mirror, absorption) in [("a lamp through glass", 0.1, None, false, clear), ("a large lamp through glass", 0.6, None, false, clear), ("a bulb through glass", 0.0, Some(PunctualKind::Point), false, clear), ("a spot through glass", 0.0, Some(spot), false, clear), ("a lamp off a mirror ball", 0.1, None, true, clear), ("a lamp through absorbing glass", 0.1, None, false, amber), ("a bulb through absorbing glass", 0.0, Some(PunctualKind::Point), false, amber)] {
         let mut scene = ball_over_floor(bulb, mirror, lamp_half, 1.0);
         scene.materials[1].absorption = absorption;
@@ -569,7 +571,7 @@ fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_th
     let (w, h) = (32u32, 32u32);
     use glint::punctual::{PunctualKind, PunctualLight};
     let spot = PunctualLight::spot(25f32.to_radians(), 15f32.to_radians());
-    let (clear, amber) = (Vec3::ZERO, Vec3::new(0.5, 1.5, 3.0));
+    let (clear, amber) = (Vec3::ZERO, AMBER);
     for (what, mirror, scale, bulb, absorption, far_ball) in [
         ("glass ball", false, 1.0f32, None, clear, false),
         ("mirror ball", true, 1.0, None, clear, false),

@@ -93,12 +93,6 @@ enum TransmittingPart {
     Translucent(Vec3),
 }
 
-impl<B: Bsdf> WithGlass<B> {
-    pub fn new(s: &Surface, wo: Vec3) -> Self {
-        <Self as Bsdf>::new(s, wo)
-    }
-}
-
 impl<B: Bsdf> Bsdf for WithGlass<B> {
     type Prepared = PreparedGlass<B::Prepared>;
     const GLASS: bool = true;
