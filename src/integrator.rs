@@ -63,7 +63,7 @@ pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights, Picked};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
 use crate::punctual::PunctualKind;
-use crate::material::{Rays, Surface};
+use crate::material::{Material, Rays, Surface};
 use crate::media::{self, Media, Sides};
 use crate::render::{LightPaths, RenderSettings};
 use crate::rng::Rng;
@@ -1137,6 +1137,30 @@ fn area_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: 
     through_medium::<B>(le * f * (weight * wi_local.z.abs() / pdf), sides, si, wi, dist)
 }
 
+/// A lamp's light (`Context::lamps`) that a ray along `d` passes, weighed
+/// as `emission_seen` weighs it.
+#[inline(always)]
+fn lamp_seen(ctx: &Context, lamp: &Hit, d: Vec3, from: &Previous, through: Option<SeenThrough>, mis: bool) -> Vec3 {
+    let tri = &ctx.scene.triangles[lamp.triangle as usize];
+    let material = &ctx.scene.materials[tri.material as usize];
+    let cos_light = tri.cross().normalize().dot(d);
+    let le = material.emitted(cos_light < 0.0) * material.spread_factor(-cos_light);
+    emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, from, through, mis)
+}
+
+/// The light surface `si` (its triangle's own material `material`)
+/// emits toward a ray along `d` that reached it from `from` at distance
+/// `t`, weighed as `emission_seen` weighs it.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn surface_emission_seen<B: Bsdf>(ctx: &Context, material: &Material, si: &SurfaceHit, t: f32, d: Vec3, from: &Previous, through: Option<SeenThrough>, mis: bool) -> Vec3 {
+    let mut le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
+    if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
+        le *= w;
+    }
+    emission_seen(ctx, si.triangle, le, t, d, si.ng.dot(d), from, through, mis)
+}
+
 /// Emission `le` of emitting triangle `triangle` seen by a ray at distance
 /// `t`, cosine `cos_light` at the emitter.
 /// `d` the ray's direction.
@@ -1418,13 +1442,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // this ray, in an absorbing medium.
         let absorbed = |beta: Vec3, t: f32| if absorbing { beta * media::transmittance(media.sigma, t) } else { beta };
         if let Some(lamp) = lamp {
-            let tri = &ctx.scene.triangles[lamp.triangle as usize];
-            let material = &ctx.scene.materials[tri.material as usize];
             // Blender hides lights from the camera unless told otherwise.
-            if (depth > 0 || material.camera_sees_lamp) && seen_kept {
-                let cos_light = tri.cross().normalize().dot(d);
-                let le = material.emitted(cos_light < 0.0) * material.spread_factor(-cos_light);
-                l += absorbed(beta, lamp.t) * emission_seen(ctx, lamp.triangle, le, lamp.t, d, cos_light, &from, seen_through, settings.mis);
+            if (depth > 0 || ctx.scene.material_of(lamp.triangle).camera_sees_lamp) && seen_kept {
+                l += absorbed(beta, lamp.t) * lamp_seen(ctx, &lamp, d, &from, seen_through, settings.mis);
             }
         }
         if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept {
@@ -1456,11 +1476,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let material = &ctx.scene.materials[own as usize];
         let sides = absorbing.then(|| Sides::at(&media, &ctx.scene.materials, own, si.material, si.front_face));
         if AREA && seen_kept {
-            let mut le = shading::emission_at(ctx.scene, material, si.triangle, si.b, si.front_face);
-            if let Some(w) = B::emission_weight(material, si.ng.dot(d)) {
-                le *= w;
-            }
-            l += beta * emission_seen(ctx, si.triangle, le, hit.t, d, si.ng.dot(d), &from, seen_through, settings.mis);
+            l += beta * surface_emission_seen::<B>(ctx, material, &si, hit.t, d, &from, seen_through, settings.mis);
         }
         if depth == max_depth {
             break;
