@@ -72,36 +72,27 @@ impl Aim {
             return None;
         }
         let parts = crate::scene::joined_parts(scene, &targets);
-        let mut boxes = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); targets.len()];
-        for (&t, &part) in targets.iter().zip(&parts) {
-            let b = &mut boxes[part as usize];
-            for p in scene.triangles[t as usize].p() {
-                *b = (b.0.min(p), b.1.max(p));
-            }
-        }
+        let boxes = crate::scene::part_boxes(scene, &targets, &parts);
         let roots: Vec<usize> = (0..targets.len()).filter(|&k| parts[k] as usize == k).collect();
         // Each object its own group, or, past MAX_SPHERES, the octant of
-        // the whole box its box's centre lies in.
+        // the whole box its box's centre lies in; at each part's root.
         let (lo, hi) = roots.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &r| (lo.min(boxes[r].0), hi.max(boxes[r].1)));
         let middle = (lo + hi) * 0.5;
-        let group_of_root = |r: usize| -> usize {
-            if roots.len() <= MAX_SPHERES {
-                roots.binary_search(&r).unwrap_or(0)
-            } else {
-                let c = (boxes[r].0 + boxes[r].1) * 0.5;
-                (c.x > middle.x) as usize | ((c.y > middle.y) as usize) << 1 | ((c.z > middle.z) as usize) << 2
-            }
-        };
+        let mut group = vec![0usize; targets.len()];
+        for (i, &r) in roots.iter().enumerate() {
+            let c = (boxes[r].0 + boxes[r].1) * 0.5;
+            group[r] = if roots.len() <= MAX_SPHERES { i } else { (c.x > middle.x) as usize | ((c.y > middle.y) as usize) << 1 | ((c.z > middle.z) as usize) << 2 };
+        }
         let groups = roots.len().min(MAX_SPHERES);
         let mut group_boxes = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); groups];
         for &r in &roots {
-            let g = &mut group_boxes[group_of_root(r)];
+            let g = &mut group_boxes[group[r]];
             *g = (g.0.min(boxes[r].0), g.1.max(boxes[r].1));
         }
         let centres: Vec<Vec3> = group_boxes.iter().map(|(lo, hi)| (*lo + *hi) * 0.5).collect();
         let mut radii = vec![0.0f32; groups];
         for (&t, &part) in targets.iter().zip(&parts) {
-            let g = group_of_root(part as usize);
+            let g = group[part as usize];
             for p in scene.triangles[t as usize].p() {
                 radii[g] = radii[g].max(p.distance(centres[g]));
             }

@@ -498,6 +498,14 @@ impl SurfaceHit {
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
         offset_origin(self.p, self.p_error, self.ng, w)
     }
+
+    /// The media on either side of this point for a path that reached it
+    /// in `here` (media.rs): the triangle's own material names the medium
+    /// its mesh encloses, the one shading the point whether it is crossed.
+    #[inline]
+    pub fn sides(&self, scene: &Scene, here: &Media) -> Sides {
+        Sides::at(here, &scene.materials, scene.triangles[self.triangle as usize].material, self.material, self.front_face)
+    }
 }
 
 /// The half of Mix Shader material `id` a hit takes, drawn by its share.
@@ -1474,7 +1482,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         // only the first has textures), and names its medium.
         let own = ctx.scene.triangles[si.triangle as usize].material;
         let material = &ctx.scene.materials[own as usize];
-        let sides = absorbing.then(|| Sides::at(&media, &ctx.scene.materials, own, si.material, si.front_face));
+        let sides = absorbing.then(|| si.sides(ctx.scene, &media));
         if AREA && seen_kept {
             l += beta * surface_emission_seen::<B>(ctx, material, &si, hit.t, d, &from, seen_through, settings.mis);
         }

@@ -66,7 +66,7 @@ use crate::integrator::{bsdf_at, bsdf_on, surface_facing, RayCounts, same_side, 
 use crate::scene::Scene;
 use crate::shading::Barycentric;
 use crate::material::Surface;
-use crate::media::{transmittance, Media, Sides};
+use crate::media::{transmittance, Media};
 use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::traversal_bench::RayKind;
@@ -607,13 +607,7 @@ fn suns_irradiance(ctx: &Context, suns: &[&crate::punctual::PunctualLight], si: 
 /// only for `auto` where no surface focuses light.
 fn emitter_sizes(scene: &Scene, emitting: &[u32]) -> Vec<f32> {
     let parts = crate::scene::joined_parts(scene, emitting);
-    let mut bounds = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); emitting.len()];
-    for (k, &t) in emitting.iter().enumerate() {
-        let b = &mut bounds[parts[k] as usize];
-        for p in scene.triangles[t as usize].p() {
-            *b = (b.0.min(p), b.1.max(p));
-        }
-    }
+    let bounds = crate::scene::part_boxes(scene, emitting, &parts);
     let mut sizes = vec![0.0; scene.triangles.len()];
     for (k, &t) in emitting.iter().enumerate() {
         let (lo, hi) = bounds[parts[k] as usize];
@@ -803,8 +797,7 @@ fn subpath<B: Bsdf>(ctx: &Context, prepared: &[Option<[B::Prepared; 2]>], aim: O
             (f * (wo.z * cos_out / (cos_in * s.pdf)), pdf_camera)
         };
         if absorbing {
-            let own = ctx.scene.triangles[v.hit.triangle as usize].material;
-            media = *Sides::at(&media, &ctx.scene.materials, own, v.hit.material, v.hit.front_face).toward(w.dot(v.hit.ng));
+            media = *v.hit.sides(ctx.scene, &media).toward(w.dot(v.hit.ng));
         }
         throughput *= factor;
         let mut alpha = v.alpha * factor;

@@ -145,6 +145,19 @@ pub fn joined_parts(scene: &Scene, subset: &[u32]) -> Vec<u32> {
     (0..subset.len() as u32).map(|k| root(&mut parent, k)).collect()
 }
 
+/// The box around each part of `joined_parts(scene, subset)` (`parts`),
+/// at the index that names the part; empty (+∞, −∞) at every other.
+pub fn part_boxes(scene: &Scene, subset: &[u32], parts: &[u32]) -> Vec<(Vec3, Vec3)> {
+    let mut boxes = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); subset.len()];
+    for (&t, &part) in subset.iter().zip(parts) {
+        let b = &mut boxes[part as usize];
+        for p in scene.triangles[t as usize].p() {
+            *b = (b.0.min(p), b.1.max(p));
+        }
+    }
+    boxes
+}
+
 impl Scene {
     /// A black background and no warnings.
     pub fn new(triangles: Vec<Triangle>, materials: Vec<Material>, camera: Camera) -> Self {
