@@ -56,7 +56,7 @@ use crate::camera::{CameraDensity, CameraRay};
 use crate::camera_hits::FirstHit;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::features::{Features, Kernel};
-use crate::caustic_guide::CausticGuide;
+use crate::caustic_guide::{CausticGuide, Near};
 use std::sync::Arc;
 use crate::light_paths::{carries_light_paths, ConnectionVertex};
 pub use crate::light_paths::LightVertices;
@@ -1280,12 +1280,12 @@ struct Step {
 fn next_step<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, beta: Vec3, depth: u32, guide: Option<&CausticGuide>, rng: &mut Rng) -> Option<Step> {
     let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
     let near = match guide {
-        Some(g) if guided_surface(&si.surface) => g.at(si.p),
-        _ => &[],
+        Some(g) if guided_surface(&si.surface) => g.near(si.p).map(|n| (g, n)),
+        _ => None,
     };
-    let s = match guide {
-        Some(g) if !near.is_empty() => guided_sample(si, bsdf, wo, g, near, u_lobe, u)?,
-        _ => bsdf.sample(wo, u_lobe, u)?,
+    let s = match near {
+        Some((g, near)) => guided_sample(si, bsdf, wo, g, &near, u_lobe, u)?,
+        None => bsdf.sample(wo, u_lobe, u)?,
     };
     let wi = si.frame.to_world(s.wi);
     if !same_side(si, wi, s.wi) {
@@ -1324,7 +1324,7 @@ fn guided_surface(s: &Surface) -> bool {
 /// weights of a path's strategies still sum to 1, and the estimate stays
 /// unbiased whatever the guide's density.
 #[inline(never)]
-fn guided_sample<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, guide: &CausticGuide, near: &[Vec3], u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+fn guided_sample<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, guide: &CausticGuide, near: &Near, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
     use crate::caustic_guide::SHARE;
     if u_lobe < SHARE {
         let wi = guide.sample(near, u_lobe / SHARE, u);
