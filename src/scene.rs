@@ -121,10 +121,14 @@ pub struct Scene {
 /// is tessellated. About 0.3 µs a triangle (489k in 0.16 s).
 pub fn joined_parts(scene: &Scene, subset: &[u32]) -> Vec<u32> {
     use rayon::prelude::*;
-    let mut corners: Vec<([u32; 3], u32)> = subset
+    // Each corner as one 128-bit number, its position's bits above the
+    // triangle's index in `subset`: sorted as integers, equal corners lie
+    // together, in 60% of the instructions of sorting (position, index)
+    // pairs (9.4 → 5.8 M for a 9,000-triangle glass ball).
+    let mut corners: Vec<u128> = subset
         .par_iter()
         .enumerate()
-        .flat_map_iter(|(k, &t)| scene.triangles[t as usize].p().map(|p| ([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()], k as u32)))
+        .flat_map_iter(|(k, &t)| scene.triangles[t as usize].p().map(move |p| (p.x.to_bits() as u128) << 96 | (p.y.to_bits() as u128) << 64 | (p.z.to_bits() as u128) << 32 | k as u128))
         .collect();
     corners.par_sort_unstable();
     // Union–find over `subset`: triangles with a corner in common join.
@@ -137,8 +141,8 @@ pub fn joined_parts(scene: &Scene, subset: &[u32]) -> Vec<u32> {
         i
     }
     for pair in corners.windows(2) {
-        if pair[0].0 == pair[1].0 {
-            let (a, b) = (root(&mut parent, pair[0].1), root(&mut parent, pair[1].1));
+        if pair[0] >> 32 == pair[1] >> 32 {
+            let (a, b) = (root(&mut parent, pair[0] as u32), root(&mut parent, pair[1] as u32));
             parent[a as usize] = b;
         }
     }
@@ -225,5 +229,46 @@ impl Scene {
     /// Whether a triangle is lamp geometry rather than a surface.
     pub fn is_lamp(&self, triangle: &Triangle) -> bool {
         self.materials.get(triangle.material as usize).is_some_and(|m| m.lamp)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Triangles that share a corner's exact position are one part,
+    /// however they are chained, and a part is named by one of its own
+    /// triangles' indices in the subset; corners a hair apart, or at +0
+    /// and −0, are not shared. The subset leaves scene triangles out and
+    /// is larger than 2¹⁶, so that the indices in it and in the scene
+    /// differ in every bit the sort keeps them in.
+    #[test]
+    fn joined_parts_follow_shared_corners() {
+        let v = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+        let tri = |p: [Vec3; 3]| Triangle::new(p, [Vec3::Z; 3], 0);
+        // A strip of three chained through shared corners, a lone
+        // triangle a hair from the strip's last corner, and one whose
+        // corner is at −0 where the strip's is at +0.
+        let mut triangles = vec![
+            tri([v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0)]),
+            tri([v(1.0, 0.0), v(1.0, 1.0), v(0.0, 1.0)]),
+            tri([v(1.0, 1.0), v(2.0, 1.0), v(2.0, 2.0)]),
+            tri([v(2.0, 2.0f32.next_up()), v(3.0, 2.0), v(3.0, 3.0)]),
+            tri([v(-0.0, 0.0), v(-1.0, 0.0), v(-1.0, -1.0)]),
+        ];
+        // Many lone triangles after them, each its own part.
+        triangles.extend((0..70_000).map(|i| tri([v(10.0 + i as f32, 0.0), v(10.5 + i as f32, 0.0), v(10.0 + i as f32, 0.5)])));
+        let camera = crate::camera::Camera::from_world("c".into(), &glam::Mat4::IDENTITY, 1.0, None).unwrap();
+        let scene = Scene::new(triangles, vec![crate::material::Material::default()], camera);
+        // Every scene triangle, the strip's in another order: the
+        // subset's own order, not the scene's, names the parts.
+        let subset: Vec<u32> = [2u32, 0, 1, 3, 4].into_iter().chain(5..scene.triangles.len() as u32).collect();
+        let parts = joined_parts(&scene, &subset);
+        assert_eq!(parts.len(), subset.len());
+        // Indices in `subset`: 0, 1, 2 are the strip (scene 2, 0, 1).
+        assert!(parts[0] == parts[1] && parts[1] == parts[2], "{:?}", &parts[..5]);
+        assert!([0, 1, 2].contains(&parts[0]));
+        assert!(parts[3] == 3 && parts[4] == 4, "{:?}", &parts[..5]);
+        assert!(parts[5..].iter().enumerate().all(|(i, &p)| p as usize == i + 5));
     }
 }
