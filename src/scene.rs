@@ -118,7 +118,7 @@ pub struct Scene {
 /// For each of the scene triangles `subset`, the index in `subset` of the
 /// one its part is named by: triangles joined through shared corners
 /// (the same position, to the bit) are one part, however finely a surface
-/// is tessellated. About 0.3 µs a triangle (489k in 0.16 s).
+/// is tessellated. About 0.2 µs a triangle (500k in 0.11 s, two threads).
 pub fn joined_parts(scene: &Scene, subset: &[u32]) -> Vec<u32> {
     use rayon::prelude::*;
     // Each corner as one 128-bit number, its position's bits above the
