@@ -239,9 +239,10 @@ mod tests {
     /// Triangles that share a corner's exact position are one part,
     /// however they are chained, and a part is named by one of its own
     /// triangles' indices in the subset; corners a hair apart, or at +0
-    /// and −0, are not shared. The subset leaves scene triangles out and
-    /// is larger than 2¹⁶, so that the indices in it and in the scene
-    /// differ in every bit the sort keeps them in.
+    /// and −0, are not shared. The subset holds the scene's triangles in
+    /// another order, more than 2¹⁶ of them, so that an index in it
+    /// differs from the scene's and needs more than 16 of the bits the
+    /// sort keeps it in.
     #[test]
     fn joined_parts_follow_shared_corners() {
         let v = |x: f32, y: f32| Vec3::new(x, y, 0.0);
