@@ -10,10 +10,10 @@
 //!   1/A_total). On an emitting triangle a point x' has pdf_A =
 //!   P(triangle | x)/A (π·lum(Le)/P_total by power) and is joined by a
 //!   shadow ray:
-//!       L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A
+//!   `L_e(x'→x) · f(wo, wi) · cosθ · cosθ' / |x' − x|² / pdf_A`
 //!   or, where the triangle is close, its direction is drawn over the
 //!   triangle's solid angle Ω with p_pick/Ω per steradian:
-//!       L_e(x'→x) · f(wo, wi) · cosθ / pdf_ω
+//!   `L_e(x'→x) · f(wo, wi) · cosθ / pdf_ω`
 //!   (lights.rs gives every light sample's density per steradian).
 //!   A point, spot or sun light gives f · cosθ · E / p_pick (punctual.rs).
 //!   A sized one (a disk, sphere or sun cone) is also hit by BSDF rays and

@@ -389,7 +389,9 @@ mod tests {
         assert_ne!(cache.copies[0].axis_ends.as_ptr(), cache.copies[1].axis_ends.as_ptr());
         let points = [(Vec3::new(0.3, -1.0, 0.2), Vec3::Y), (Vec3::new(-2.0, 0.5, 1.0), Vec3::new(0.3, 0.8, -0.5).normalize()), (Vec3::new(4.0, 1.0, -3.0), Vec3::ZERO)];
         // Which copy (its address) a thread read, and what it picked.
-        let picks = |cache: &LightCache| -> (usize, Vec<(Option<(usize, f32, f32)>, Option<f32>)>) {
+        // A pick's (light, probability, u left) and light 3's probability.
+        type Seen = (Option<(usize, f32, f32)>, Option<f32>);
+        let picks = |cache: &LightCache| -> (usize, Vec<Seen>) {
             let seen = points.iter().flat_map(|&(p, n)| [0.1f32, 0.5, 0.9].map(|u| (cache.sample(p, n, u), cache.probability(3, p, n)))).collect();
             (cache.tables().cells.as_ptr() as usize, seen)
         };

@@ -316,6 +316,7 @@ fn render(args: RenderArgs) -> Result<()> {
     // the render (a light grid's cells, light_cache.rs; the features
     // line's light-path rule, light_paths::landing): outside the pool it
     // would start rayon's global one beside it.
+    let prepare_start = Instant::now();
     let (mut ctx, build_time) = pool.install(|| Context::new(&scene));
     glint::stderr_line!("{}", pool.install(|| ctx.features_line(&settings)));
     if !settings.strategies.is_all() {
@@ -327,6 +328,9 @@ fn render(args: RenderArgs) -> Result<()> {
     if ctx.kernel(&settings).bsdf == KernelBsdf::Principled {
         glint::bsdf::energy::tables();
     }
+    // The rest of the set-up beside the BVH: the lights' tree and grid,
+    // the light-path rule's rays, the energy tables.
+    let lights_time = prepare_start.elapsed().saturating_sub(build_time);
     let total = (budget.samples > 0).then(|| width as u64 * height as u64 * budget.samples as u64);
     let progress = ProgressBar::with_draw_target(total, ProgressDrawTarget::hidden());
     progress.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed} (eta {eta})").unwrap_or_else(|_| ProgressStyle::default_bar()));
@@ -381,8 +385,8 @@ fn render(args: RenderArgs) -> Result<()> {
     }
     if args.stats {
         let r = &stats.rays;
-        glint::stderr_line!("scene: {} triangles, {} emissive, {} materials; load {:.3} s, BVH build {:.3} s",
-            scene.triangles.len(), ctx.lights.triangles.len(), scene.materials.len(), load_time.as_secs_f64(), build_time.as_secs_f64());
+        glint::stderr_line!("scene: {} triangles, {} emissive, {} materials; load {:.3} s, BVH build {:.3} s, lights and the rest of the set-up {:.3} s",
+            scene.triangles.len(), ctx.lights.triangles.len(), scene.materials.len(), load_time.as_secs_f64(), build_time.as_secs_f64(), lights_time.as_secs_f64());
         glint::stderr_line!("rays: {:.2} M camera, {:.2} M bounce, {:.2} M shadow; {threads} threads", r.camera as f64 / 1e6, r.bounce as f64 / 1e6, r.shadow as f64 / 1e6);
         match stats.camera_tests {
             0.0 => glint::stderr_line!("camera rays' first hits: through the BVH"),

@@ -150,7 +150,8 @@ pub struct RenderRequest {
     pub height: Option<u32>,
     /// Samples per pixel; 0 with a time limit: as many as fit.
     pub samples: Option<u32>,
-    /// Seconds of rendering (not counting load and BVH build); 0: none.
+    /// Seconds of rendering (not counting load, BVH build and the lights'
+    /// set-up); 0: none.
     pub time_limit: Option<f64>,
     /// Adaptive sampling's Noise Threshold (Blender's Render › Sampling);
     /// 0: off.

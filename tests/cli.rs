@@ -31,6 +31,8 @@ fn renders_the_embedded_default_scene_to_exr_and_png() {
     assert!(o.status.success(), "{err}");
     assert!(err.contains("40x30, 2 spp,") && err.contains("Mrays/s"), "summary line missing: {err}");
     assert!(err.contains("discarded samples (non-finite or above 1e24): 0"), "{err}");
+    // The set-up outside the render's time, reported apart.
+    assert!(err.lines().any(|l| l.starts_with("scene: ") && l.contains(" s, BVH build ") && l.contains(" s, lights and the rest of the set-up ")), "{err}");
     let (w, h, px, alpha) = glint::output::read_exr_with_alpha(&exr).unwrap();
     assert_eq!((w, h), (40, 30));
     assert!(px.iter().all(|p| p.is_finite()) && px.iter().any(|p| p.x > 0.0) && alpha.iter().all(|a| *a == 1.0));

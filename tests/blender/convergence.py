@@ -17,7 +17,8 @@ light onto the floor before it), it:
 2. renders with Cycles at 1, 2, 4, … samples (fair settings: CPU, no
    denoising, adaptive sampling or clamping, box filter, equal bounces),
    with Glint at 1, 2, 4, … samples of the same exported scene (`glint
-   render`, its own rendering time, without load and BVH build), and with
+   render`, its own rendering time, without load, BVH build and the lights'
+   set-up, which its --stats report apart), and with
    --mitsuba, with Mitsuba 3 (`pip install mitsuba`; its LLVM variant needs
    Debian's libllvm19, found through DRJIT_LIBLLVM_PATH) on the scene
    converted by mitsuba_scene.py (its docstring lists what differs), timed
