@@ -399,10 +399,10 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         let phases = &stats.phases;
         let (setup, subpaths, paths) = (phases.setup.as_secs_f64(), phases.light_subpaths.as_secs_f64(), phases.camera_paths.as_secs_f64());
-        glint::stderr_line!("time by phase: set-up {setup:.5} s (caustic guide, MIS scale, camera rays' bins, the sums' pages), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film, passes)",
+        glint::stderr_line!("time by phase: set-up {setup:.5} s (what the caustic guide, MIS scale, camera rays' bins and the sums' pages add beside the first light subpaths), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film, passes)",
             (seconds - setup - subpaths - paths).max(0.0));
         if let Some((directions, cells, edge)) = stats.caustic_guide {
-            glint::stderr_line!("caustic guide: {directions} directions in {cells} cells of {edge:.3} m, made in {:.5} s of the set-up", phases.caustic_guide.as_secs_f64());
+            glint::stderr_line!("caustic guide: {directions} directions in {cells} cells of {edge:.3} m, made in {:.5} s beside the bins and the first light subpaths", phases.caustic_guide.as_secs_f64());
         }
         glint::stderr_line!("discarded samples (non-finite or above {:e}): {}", glint::render::MAX_SAMPLE, stats.discarded);
         if let Some(kib) = glint::memory::peak_rss_kib() {

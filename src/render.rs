@@ -11,6 +11,8 @@ use crate::material::Material;
 use crate::integrator::{prepare_materials, radiance, Context, LightVertices, RayCounts};
 use crate::light_paths::PER_SAMPLE;
 use crate::light_tracing::LightTracing;
+use crate::caustic_guide::CausticGuide;
+use std::sync::Arc;
 use crate::strategies::Strategies;
 use crate::adaptive::{Adaptive, Convergence};
 use crate::pixel_filter::PixelFilter;
@@ -342,22 +344,23 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let traced = share(traced_per_sample(w, h), 1);
     let tracing_for = |mis_scale| (connect && settings.light_tracing && lens.joinable()).then_some(LightTracing { lens: &lens, filter: &settings.pixel_filter, width: w, height: h, subpaths: traced as f32, mis_scale, strategies: settings.strategies });
     // Where light subpaths go through glass and mirrors, where camera
-    // paths look for what they focus (caustic_guide.rs): made before the
-    // bins and the MIS scale, its subpaths on both threads.
-    let guide_started = Instant::now();
-    let (guide, guide_rays) = if connect && settings.caustic_guide && ctx.delta_starts() {
-        ctx.caustic_guide::<B>(&prepared, LightVertices::caustic_subpaths(settings.spp), settings.max_depth)
-    } else {
-        (None, 0)
+    // paths look for what they focus (caustic_guide.rs).
+    let make_guide = || {
+        let started = Instant::now();
+        let (guide, rays) = if connect && settings.caustic_guide && ctx.delta_starts() {
+            ctx.caustic_guide::<B>(&prepared, LightVertices::caustic_subpaths(settings.spp), settings.max_depth)
+        } else {
+            (None, 0)
+        };
+        (guide, rays, started.elapsed())
     };
-    total.rays.bounce += guide_rays;
-    total.caustic_guide = guide.as_ref().map(|g| g.summary());
-    let guide_took = guide_started.elapsed();
     // One batch of each sample index's subpaths; the first holds the
     // vertices connections take (`per_sample` ≤ TRACED_BATCH of them).
-    let trace_lights = |range: Range<u32>, batch: Range<u32>, mis_scale: f32| {
+    // The subpaths do not read the guide, which their vertices carry to
+    // the camera paths.
+    let trace_lights = |range: Range<u32>, batch: Range<u32>, mis_scale: f32, guide: Option<&Arc<CausticGuide>>| {
         let started = Instant::now();
-        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale, guide.as_ref());
+        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale, guide);
         (traced, started.elapsed())
     };
     // Camera rays' first hits found without the BVH where that is
@@ -385,22 +388,39 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     let active = convergence.as_ref().map(|c| &c.active[..]);
     let mut pass_half = if convergence.is_some() { crate::memory::zeroed_vec3s(pixels) } else { Vec::new() };
     let mut pass_in_half = if convergence.is_some() { vec![0u32; pixels] } else { Vec::new() };
-    // The bins, and the sums' pages mapped, beside the connections' MIS
-    // scale and the first light subpaths, which need neither: each of
-    // these has a serial part that left the other thread idle (a 1-spp
-    // render's set-up ran no faster on two threads than on one).
-    let (camera_hits, (mis_scale, mut first_lights)) = rayon::join(|| {
-        crate::memory::map_for_writing(&mut pass_sum);
-        bin_camera_rays()
-    }, || {
-        if !connect {
-            return ((1.0, 0), None);
+    // The bins and the sums' pages mapped, the caustic guide, and the
+    // connections' MIS scale and first light subpaths, side by side: each
+    // has a serial part (the bins, the guide's aim and grid) that left the
+    // other thread idle where it ran alone (a 1-spp render's set-up had
+    // run no faster on two threads than on one; the glass sphere's guide,
+    // made first, had been 8–10% of its 1-spp render).
+    let ((camera_hits, (guide, guide_rays, guide_took)), (mis_scale, mut first_lights)) = rayon::join(
+        || {
+            rayon::join(
+                || {
+                    crate::memory::map_for_writing(&mut pass_sum);
+                    bin_camera_rays()
+                },
+                make_guide,
+            )
+        },
+        || {
+            if !connect {
+                return ((1.0, 0), None);
+            }
+            let scale = LightVertices::mis_scale::<B>(ctx, &prepared, settings.seed, settings.max_depth);
+            let first = samples.start..(samples.start + chunk).min(samples.end);
+            let traced = (!first.is_empty()).then(|| trace_lights(first, 0..TRACED_BATCH, scale.0, None));
+            (scale, traced)
+        },
+    );
+    if let Some(((vertices, _, _), _)) = first_lights.as_mut() {
+        for v in vertices {
+            v.guide.clone_from(&guide);
         }
-        let scale = LightVertices::mis_scale::<B>(ctx, &prepared, settings.seed, settings.max_depth);
-        let first = samples.start..(samples.start + chunk).min(samples.end);
-        let traced = (!first.is_empty()).then(|| trace_lights(first, 0..TRACED_BATCH, scale.0));
-        (scale, traced)
-    });
+    }
+    total.rays.bounce += guide_rays;
+    total.caustic_guide = guide.as_ref().map(|g| g.summary());
     let (mis_scale, scale_rays) = mis_scale;
     total.rays.bounce += scale_rays;
     total.camera_tests = camera_hits.as_ref().map_or(0.0, |hits| hits.tests_per_pixel());
@@ -415,7 +435,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
         let light_vertices = if connect {
             let ((vertices, splats, rays), took) = match first_lights.take() {
                 Some(first) => first,
-                None => trace_lights(range.clone(), 0..TRACED_BATCH, mis_scale),
+                None => trace_lights(range.clone(), 0..TRACED_BATCH, mis_scale, guide.as_ref()),
             };
             let rest_started = Instant::now();
             let mut merge = |splats: Vec<Vec<crate::light_tracing::Splat>>, rays: &RayCounts| {
@@ -447,7 +467,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 if cancel.load(Ordering::Relaxed) {
                     break;
                 }
-                let ((_, splats, rays), _) = trace_lights(range.clone(), j0..j0 + TRACED_BATCH, mis_scale);
+                let ((_, splats, rays), _) = trace_lights(range.clone(), j0..j0 + TRACED_BATCH, mis_scale, guide.as_ref());
                 merge(splats, &rays);
             }
             total.phases.light_subpaths += took + rest_started.elapsed();
