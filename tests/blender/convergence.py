@@ -224,7 +224,19 @@ def glint_render(executable, folder, spp, path, stats=None, seed=0):
     if stats is not None:
         stats["mrays"] = float(summary.split(",")[3].split()[0])
         stats["memory"] = next((line.split("peak RSS")[1].strip() for line in lines if "peak RSS" in line), "?")
+        stats["setup"] = glint_setup_seconds(lines)
     return read_exr(path)[..., :3].astype(np.float64), seconds
+
+
+def glint_setup_seconds(lines):
+    """The set-up Glint's times leave out, from its --stats line "scene:
+    …; load L s, BVH build B s, lights and the rest of the set-up R s":
+    B + R (Cycles' times hold theirs, in its sync); None without it."""
+    scene_line = next((line for line in lines if line.startswith("scene: ")), "")
+    try:
+        return sum(float(scene_line.split(key)[1].split()[0]) for key in ("BVH build ", "the rest of the set-up "))
+    except (IndexError, ValueError):
+        return None
 
 
 def mitsuba_setup(scene):
@@ -506,7 +518,8 @@ def main():
                 if renderer != "cycles":
                     bias = ref.reshape(-1, 3).mean(axis=0) / refs["cycles"].reshape(-1, 3).mean(axis=0) - 1
                     print(f"{name}: {renderer} bias against Cycles' reference (R, G, B): {np.round(bias * 100, 2)} %")
-            print(f"{name}: Glint {stats['mrays']:.1f} Mrays/s at {args.max_spp} spp, peak RSS {stats['memory']}")
+            setup = "" if stats.get("setup") is None else f", set-up outside its times (BVH build, lights) {stats['setup'] * 1000:.0f} ms"
+            print(f"{name}: Glint {stats['mrays']:.1f} Mrays/s at {args.max_spp} spp, peak RSS {stats['memory']}{setup}")
             glint_curve = curve_of(rows, "glint")
             for peer in [p for p in renderers if p != "glint"]:
                 print(peer_rows(name, peer, rows, glint_curve, blacks[peer]))

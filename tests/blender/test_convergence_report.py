@@ -8,7 +8,7 @@ import pytest
 
 import numpy as np
 
-from convergence import CLEAN_LEVELS, black_relmse, clean_image_table, peer_rows, relative_time_scatter, time_to_level, time_to_reach
+from convergence import CLEAN_LEVELS, black_relmse, clean_image_table, glint_setup_seconds, peer_rows, relative_time_scatter, time_to_level, time_to_reach
 
 # Error halving as time doubles: an unbiased estimator's 1/time law.
 CURVE = [(1.0, 0.1), (2.0, 0.05), (4.0, 0.025)]
@@ -87,3 +87,12 @@ def test_a_speed_up_without_timings_scatter_has_none():
     rows = [{"renderer": "glint", "spp": 1, "seconds": t, "relmse": e} for t, e in CURVE]
     rows += [{"renderer": "cycles", "spp": 1, "seconds": 2.0, "seconds_se": float("nan"), "relmse": 0.5}]
     assert peer_rows("scene", "cycles", rows, CURVE, black=1.0).splitlines()[1].endswith("2.0×")
+
+
+def test_glints_set_up_is_its_bvh_build_and_the_rest_before_rendering():
+    # The --stats line as tests/cli.rs pins it; load is left out, as for
+    # the peers (Cycles' sync reads Blender's data, not a file).
+    lines = ["features: diffuse", "scene: 76 triangles, 64 emissive, 33 materials; load 0.002 s, BVH build 0.010 s, lights and the rest of the set-up 0.014 s", "time: 0.1 s per sample"]
+    assert glint_setup_seconds(lines) == pytest.approx(0.024)
+    assert glint_setup_seconds(["scene: 3 triangles; load 0.001 s, BVH build 0.002 s"]) is None
+    assert glint_setup_seconds([]) is None
