@@ -1012,15 +1012,17 @@ fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
 /// emitter), in the measure of that light's sample:
 /// p_start·π·pdf_dir·cos/d² over the pick's probability for a light of
 /// radius 0, p_start·π·pdf_dir·cos/(πr²) over the pick's times the facing
-/// disk's solid-angle density for a sized one (`PunctualLight::start`).
-/// 0 for a sun, which starts no subpaths.
+/// disk's solid-angle density for a sized one (`PunctualLight::start`);
+/// for a sun, p_start·π·pdf_dir·cos/(πR²·cos_d) over the same, R the
+/// radius of the disk its subpaths start on and cos_d the cosine between
+/// the way the light arrives and the sun's axis (`Lights::start_spread`).
 #[inline]
 fn point_connection_density(ctx: &Context, connect: f32, index: usize, toward_light: Vec3, cos_to_light: f32, p: Vec3) -> f32 {
     if !(connect > 0.0 && cos_to_light > 0.0) {
         return 0.0;
     }
     let light = &ctx.scene.punctual[index];
-    ctx.lights.point_start_probability(ctx.scene, index) * std::f32::consts::PI * light.start_pdf(toward_light) * connect * cos_to_light / light.start_spread(light.position.distance_squared(p))
+    ctx.lights.point_start_probability(ctx.scene, index) * std::f32::consts::PI * light.start_pdf(toward_light) * connect * cos_to_light / ctx.lights.start_spread(light, light.position.distance_squared(p), -toward_light)
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E

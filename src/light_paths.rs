@@ -466,7 +466,7 @@ pub(crate) struct Landing {
     pub onward: f32,
     /// The emitters' share of the irradiance where their light lands
     /// (point and spot lights among them), against the World's and the
-    /// suns' (which light subpaths do not carry), each landing point weighted by the light landing
+    /// suns' (whose own subpaths, `SunStarts`, this rule leaves out), each landing point weighted by the light landing
     /// there: the onward share counts for light subpaths only from
     /// `EMITTERS_LIGHT` on. The open corner (onward 0.49) under a brighter
     /// and brighter World, light subpaths against none (error × time, 4
@@ -501,6 +501,11 @@ pub(crate) fn landing(ctx: &Context) -> Landing {
     for _ in 0..NEAR_RAYS {
         let (u_pick, u_point) = rng.next_1d_2d();
         let Some(start) = ctx.lights.sample_start(ctx.scene, u_pick, u_point, rng.next_2d(), None) else { continue };
+        // The emitters' light alone: a sun's starts (`SunStarts`) count
+        // with the World's, in `other`.
+        if matches!(&start, Start::Point(p) if ctx.scene.punctual[p.index as usize].kind == crate::punctual::PunctualKind::Sun) {
+            continue;
+        }
         // The power this start stands for (a subpath's α, summed over RGB).
         let (origin, dir, power, size) = match &start {
             Start::Emitter(e) => (e.origin, e.dir, e.le.element_sum() as f64 / e.density as f64, sizes[e.triangle as usize]),
@@ -678,7 +683,7 @@ fn first_from_point(ctx: &Context, start: PointEmission, rng: &mut Rng, rays: &m
     } else {
         (pick, 0.0)
     };
-    let spread = light.start_spread(hit.t * hit.t);
+    let spread = ctx.lights.start_spread(light, hit.t * hit.t, start.dir);
     let generated = start.probability * start.pdf_dir * cos_in / (spread * light_pdf);
     if !(cos_in > 0.0 && generated > 0.0 && generated.is_finite() && back.is_finite()) {
         return None;

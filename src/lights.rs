@@ -76,6 +76,8 @@ pub struct Lights {
     suns: Vec<(usize, f32)>,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
+    /// Light subpaths from suns (`SunStarts`), where some sun shines.
+    sun_starts: Option<SunStarts>,
     /// The local lights in a light tree where there are two or more;
     /// else `distribution` picks by power.
     tree: Option<LocalTree>,
@@ -445,7 +447,7 @@ pub struct EmissionSample {
     pub density: f32,
 }
 
-/// Where a light subpath starts from a point or spot light
+/// Where a light subpath starts from a point, spot or sun light
 /// (`Lights::sample_start`, `PunctualLight::start`).
 pub struct PointEmission {
     /// Scene punctual light index.
@@ -462,10 +464,60 @@ pub struct PointEmission {
 }
 
 /// The start of a light subpath: a point of an emitting triangle or a
-/// point or spot light. Suns start none.
+/// point, spot or sun light.
 pub enum Start {
     Emitter(EmissionSample),
     Point(PointEmission),
+}
+
+/// Where light subpaths start from suns: on the disk square to a sun's
+/// light that the scene's bounding sphere casts (its radius R, just
+/// outside the sphere), a point uniform on it, leaving along the sun's
+/// light (or uniformly within its cone, for a sized sun). A start stands
+/// for the light E·πR² that crosses the disk; each sun is picked by that
+/// power, and the suns together take `share` of all starts.
+struct SunStarts {
+    /// Of all subpaths: the suns' part of the power where other lights
+    /// start some too, at most `MAX_SUN_SHARE`; else all of them.
+    share: f32,
+    /// Each sun's scene punctual index and its probability among the suns.
+    suns: Vec<(usize, f32)>,
+    centre: Vec3,
+    radius: f32,
+}
+
+/// The suns' share of the light subpaths' starts at most, where other
+/// lights start subpaths too: a sun's power over the scene's disk is
+/// mostly light that lands outside, on a roof or a ground plane, and
+/// would leave a room's lamps few subpaths.
+const MAX_SUN_SHARE: f32 = 0.5;
+
+impl SunStarts {
+    fn new(scene: &Scene, local_power: f64) -> Option<Self> {
+        let radius = scene_radius(scene);
+        let powers: Vec<(usize, f64)> = scene
+            .punctual
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.kind == crate::punctual::PunctualKind::Sun)
+            .map(|(i, l)| (i, l.power(radius)))
+            .filter(|&(_, p)| p > 0.0 && p.is_finite())
+            .collect();
+        let total: f64 = powers.iter().map(|&(_, p)| p).sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let share = if local_power > 0.0 { ((total / (total + local_power)) as f32).min(MAX_SUN_SHARE) } else { 1.0 };
+        let (lo, hi) = crate::scene::bounds(&scene.triangles);
+        let centre = if lo.x > hi.x { Vec3::ZERO } else { (lo + hi) * 0.5 };
+        let suns = powers.into_iter().map(|(i, p)| (i, (p / total) as f32)).collect();
+        Some(SunStarts { share, suns, centre, radius })
+    }
+
+    /// Sun `index`'s probability among the suns; 0 for any other light.
+    fn probability(&self, index: usize) -> f32 {
+        self.suns.iter().find(|&&(i, _)| i == index).map_or(0.0, |&(_, p)| p)
+    }
 }
 
 impl Lights {
@@ -517,6 +569,7 @@ impl Lights {
         let weights = |world: f32| DistantWeights { world, total: world + sunlight };
         let tree = LocalTree::new(scene, &triangles, &records, &softboxes, &powers);
         let distribution = Distribution1D::new(powers);
+        let sun_starts = SunStarts::new(scene, distribution.total());
         let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
         Lights {
             // π/P_total once: a division in f64 had been a tenth of a light sample.
@@ -530,6 +583,7 @@ impl Lights {
             local,
             suns,
             sized,
+            sun_starts,
             tree,
             portals: Portals::new(scene.portals.clone()),
             softboxes,
@@ -860,10 +914,17 @@ impl Lights {
     /// subpath on a point (and face) of an emitter of material `m`: its
     /// pick by power and point by area, halved for a two-sided emitter,
     /// whose face is a coin toss. The same wherever the path is going,
-    /// unlike `pdf_area`.
+    /// unlike `pdf_area`; and times the share of the starts the suns
+    /// leave to the local lights.
     pub fn emission_density(&self, m: &Material) -> f32 {
         let face = if m.double_sided { 0.5 } else { 1.0 };
-        self.local_pdf_area(m.emission) * face
+        self.local_pdf_area(m.emission) * face * self.local_start_share()
+    }
+
+    /// The share of the light subpaths' starts on local lights (emitters,
+    /// points and spots): what the suns leave (`SunStarts`).
+    fn local_start_share(&self) -> f32 {
+        self.sun_starts.as_ref().map_or(1.0, |s| 1.0 - s.share)
     }
 
     /// The start of a light subpath from an emitting triangle
@@ -876,29 +937,79 @@ impl Lights {
     }
 
     /// The probability with which `sample_start` picks punctual light
-    /// `index`: by power (0 for a sun, which starts no subpaths).
+    /// `index`: a point or spot by power among the local lights, a sun by
+    /// its power among the suns (`SunStarts`).
     pub fn point_start_probability(&self, scene: &Scene, index: usize) -> f32 {
         match scene.punctual.get(index) {
-            Some(light) if light.kind != crate::punctual::PunctualKind::Sun => self.distribution.probability(self.triangles.len() + index) as f32,
-            _ => 0.0,
+            Some(light) if light.kind == crate::punctual::PunctualKind::Sun => self.sun_starts.as_ref().map_or(0.0, |s| s.share * s.probability(index)),
+            Some(_) => self.distribution.probability(self.triangles.len() + index) as f32 * self.local_start_share(),
+            None => 0.0,
         }
     }
 
-    /// Whether any light starts light subpaths: an emitting triangle or a
-    /// point or spot light.
+    /// Whether any light starts light subpaths: an emitting triangle, a
+    /// point or spot light, or a sun.
     pub fn starts_subpaths(&self, scene: &Scene) -> bool {
-        !self.distribution.is_empty() && (!self.triangles.is_empty() || (0..scene.punctual.len()).any(|i| self.point_start_probability(scene, i) > 0.0))
+        self.sun_starts.is_some() || (!self.distribution.is_empty() && (!self.triangles.is_empty() || (0..scene.punctual.len()).any(|i| self.point_start_probability(scene, i) > 0.0)))
+    }
+
+    /// What `start_pdf` of punctual light `light` is divided by toward a
+    /// point at squared distance `d2` that a start leaving along unit
+    /// `travel` reaches (`PunctualLight::start_spread`): for a sun, the
+    /// disk's area over the cosine between `travel` and the sun's light (a
+    /// start's point is uniform on the disk, which that cosine narrows as
+    /// seen along `travel`).
+    pub fn start_spread(&self, light: &crate::punctual::PunctualLight, d2: f32, travel: Vec3) -> f32 {
+        match (&self.sun_starts, light.kind) {
+            (Some(s), crate::punctual::PunctualKind::Sun) => std::f32::consts::PI * s.radius * s.radius * travel.dot(light.direction).max(0.0),
+            _ => light.start_spread(d2),
+        }
+    }
+
+    /// A start from a sun (`SunStarts`), `u_pick` picking the sun.
+    fn sun_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2) -> Option<PointEmission> {
+        let starts = self.sun_starts.as_ref()?;
+        let mut rest = u_pick;
+        let &(index, within) = starts.suns.iter().find(|&&(_, p)| {
+            rest -= p;
+            rest < 0.0
+        }).or(starts.suns.last())?;
+        let light = scene.punctual.get(index)?;
+        let travel = light.direction;
+        let (dir, pdf_dir, radiance) = if light.size > 0.0 {
+            // Within the cone of the sun's disk, of radiance E/(π sin²θ).
+            let one_minus_cos = crate::sampling::one_minus_cos(light.size);
+            let s = light.size.sin();
+            (crate::sampling::cone_sample_within(travel, one_minus_cos, u_dir), crate::sampling::cone_pdf(one_minus_cos), light.intensity / (std::f32::consts::PI * s * s))
+        } else {
+            (travel, 1.0, light.intensity)
+        };
+        let disk = Frame::from_normal(travel).to_world(Vec3::from((crate::sampling::concentric_disk(u_point) * starts.radius).extend(0.0)));
+        let origin = starts.centre - travel * (starts.radius * 1.01) + disk;
+        let probability = starts.share * within;
+        // α = L·cos·πR² / (p·pdf_dir), the light through the disk a start
+        // stands for (E·πR²/p for a sun without a size).
+        let alpha = radiance * (dir.dot(travel) * std::f32::consts::PI * starts.radius * starts.radius / (probability * pdf_dir));
+        (alpha.is_finite() && alpha.max_element() > 0.0 && origin.is_finite()).then_some(PointEmission { index: index as u32, origin, dir, alpha, probability, pdf_dir })
     }
 
     /// The start of a light subpath (light_paths.rs): a light by power;
     /// on an emitter a point by area, a face, and a cosine-weighted
     /// direction from it (within the cone of a lamp's Spread); from a
-    /// point or spot light as `PunctualLight::start` says. None where the
-    /// pick lands on a sun, or the start emits nothing.
+    /// point or spot light as `PunctualLight::start` says; from a sun as
+    /// `SunStarts` says, for their share. None where the start emits
+    /// nothing.
     /// With `aim`, an emitter's direction is drawn toward its sphere
     /// instead (caustic_guide.rs): its density and α are then not the
     /// start's, and only where the subpath goes counts.
     pub fn sample_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2, aim: Option<&Aim>) -> Option<Start> {
+        let mut u_pick = u_pick;
+        if let Some(starts) = &self.sun_starts {
+            if u_pick < starts.share {
+                return self.sun_start(scene, u_pick / starts.share, u_point, u_dir).map(Start::Point);
+            }
+            u_pick = ((u_pick - starts.share) / (1.0 - starts.share)).min(1.0 - f32::EPSILON);
+        }
         if self.distribution.is_empty() {
             return None;
         }

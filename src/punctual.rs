@@ -192,11 +192,18 @@ impl PunctualLight {
 
     /// The density with which `start` leaves along −`toward_light` (a
     /// unit direction from a point toward the light); 0 outside a spot's
-    /// cone and for a sun.
+    /// cone. A sun's subpaths (`Lights::sample_start`) leave uniformly
+    /// within its cone, or, without a size, along its light: 1 there, the
+    /// only direction asked of it.
     pub fn start_pdf(&self, toward_light: Vec3) -> f32 {
         match self.kind {
             PunctualKind::Point => 1.0 / (4.0 * PI),
             PunctualKind::Spot { cos_outer, .. } if self.cone(toward_light) > 0.0 => cone_pdf(1.0 - cos_outer),
+            PunctualKind::Sun if self.size > 0.0 => {
+                let cone = one_minus_cos(self.size);
+                if (toward_light + self.direction).length_squared() * 0.5 <= cone { cone_pdf(cone) } else { 0.0 }
+            }
+            PunctualKind::Sun => 1.0,
             _ => 0.0,
         }
     }

@@ -431,7 +431,7 @@ fn assert_means_agree(what: &str, (a_label, a): (&str, &[Vec<Vec3>]), (b_label, 
 /// and to one side, and a camera on the floor's caustic: everything
 /// `scale` times as large, the radiances the same.
 fn ball_over_floor(bulb: Option<glint::punctual::PunctualKind>, mirror: bool, lamp_half: f32, scale: f32) -> Scene {
-    use glint::punctual::PunctualLight;
+    use glint::punctual::{PunctualKind, PunctualLight};
     let lamp_at = Vec3::new(0.5, 1.6, -0.4) * scale;
     let mut tris = common::horizontal_quad(Vec3::ZERO, 2.0 * scale, 0.0, true, 0);
     tris.extend(sphere(Vec3::new(0.0, 0.6, 0.0) * scale, 0.4 * scale, 32, 64, 1));
@@ -443,7 +443,12 @@ fn ball_over_floor(bulb: Option<glint::punctual::PunctualKind>, mirror: bool, la
     }
     let mut scene = Scene::new(tris, materials, common::look_at(Vec3::new(-0.6, 1.4, 2.2) * scale, Vec3::new(-0.2, 0.1, 0.2) * scale, 0.9));
     if let Some(kind) = bulb {
-        scene.punctual = vec![PunctualLight { name: "bulb".into(), kind, position: lamp_at, direction: -Vec3::Y, intensity: Vec3::splat(4.0 * scale * scale), size: 0.05 * scale, sphere: false, camera_sees: false, shadowless: false }];
+        scene.punctual = vec![match kind {
+            // From the bulb's side, 2.9° across (Blender's sun angle: 5.7°),
+            // of irradiance 4 W·m⁻².
+            PunctualKind::Sun => PunctualLight { name: "sun".into(), kind, position: Vec3::ZERO, direction: (Vec3::new(0.0, 0.6, 0.0) * scale - lamp_at).normalize(), intensity: Vec3::splat(4.0), size: 0.05, sphere: false, camera_sees: false, shadowless: false },
+            _ => PunctualLight { name: "bulb".into(), kind, position: lamp_at, direction: -Vec3::Y, intensity: Vec3::splat(4.0 * scale * scale), size: 0.05 * scale, sphere: false, camera_sees: false, shadowless: false },
+        }];
     }
     scene
 }
@@ -468,7 +473,7 @@ fn light_paths_through_glass_keep_the_image_and_lower_the_caustics_noise() {
     use glint::punctual::{PunctualKind, PunctualLight};
     let spot = PunctualLight::spot(60f32.to_radians(), 45f32.to_radians());
     let (clear, amber) = (Vec3::ZERO, AMBER);
-    for (what, lamp_half, bulb, mirror, absorption) in [("a lamp through glass", 0.1, None, false, clear), ("a large lamp through glass", 0.6, None, false, clear), ("a bulb through glass", 0.0, Some(PunctualKind::Point), false, clear), ("a spot through glass", 0.0, Some(spot), false, clear), ("a lamp off a mirror ball", 0.1, None, true, clear), ("a lamp through absorbing glass", 0.1, None, false, amber), ("a bulb through absorbing glass", 0.0, Some(PunctualKind::Point), false, amber)] {
+    for (what, lamp_half, bulb, mirror, absorption) in [("a lamp through glass", 0.1, None, false, clear), ("a large lamp through glass", 0.6, None, false, clear), ("a bulb through glass", 0.0, Some(PunctualKind::Point), false, clear), ("a spot through glass", 0.0, Some(spot), false, clear), ("a sun through glass", 0.0, Some(PunctualKind::Sun), false, clear), ("a lamp off a mirror ball", 0.1, None, true, clear), ("a lamp through absorbing glass", 0.1, None, false, amber), ("a bulb through absorbing glass", 0.0, Some(PunctualKind::Point), false, amber)] {
         let mut scene = ball_over_floor(bulb, mirror, lamp_half, 1.0);
         scene.materials[1].absorption = absorption;
         let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(w, h, 64, 8, 0) };
@@ -641,5 +646,42 @@ fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_th
         if !mirror {
             assert!(variances.0 < 0.8 * variances.1, "{what}: the ball's variance with the guide {} against {} without", variances.0, variances.1);
         }
+    }
+}
+
+/// Suns start light subpaths (lights.rs, `SunStarts`), from a disk that
+/// the scene's bounding sphere casts across their light, and take at most
+/// half of the starts beside other lights. With them the image stays where
+/// camera paths alone put it (each channel's mean over the image within 5
+/// standard errors): a sun without a size over the glass ball (whose
+/// subpaths end at the glass, as a bulb's of radius 0 do, where no camera
+/// path could find their light), the sized sun beside the lamp, and the
+/// sized sun alone over a matte ball, whose subpaths all start from it.
+#[test]
+fn light_paths_from_suns_keep_the_image() {
+    use glint::punctual::PunctualKind;
+    use glint::render::LightPaths;
+    let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(32, 32, 64, 8, 0) };
+    let sized_sun = ball_over_floor(Some(PunctualKind::Sun), false, 0.0, 1.0);
+    let mut point_sun = sized_sun.clone();
+    point_sun.punctual[0].size = 0.0;
+    let mut sun_and_lamp = ball_over_floor(None, false, 0.1, 1.0);
+    sun_and_lamp.punctual = sized_sun.punctual.clone();
+    let mut matte = sized_sun.clone();
+    matte.materials[1] = common::diffuse("ball", 0.5);
+    for (what, scene) in [("a sun without a size over the glass ball", &point_sun), ("a sun beside a lamp", &sun_and_lamp), ("a sun alone over a matte ball", &matte)] {
+        let (ctx, _) = Context::new(scene);
+        assert!(ctx.traces_light_paths(&s), "{what}: {}", ctx.features_line(&s));
+        let renders = |light_paths: LightPaths, seeds: std::ops::Range<u64>, spp: u32| -> Vec<Vec<Vec3>> {
+            seeds
+                .map(|seed| {
+                    let (img, stats) = render(scene, &RenderSettings { light_paths, seed, spp, ..s.clone() }, 2);
+                    common::assert_clean(&img, &stats, what);
+                    img
+                })
+                .collect()
+        };
+        let all: Vec<usize> = (0..32 * 32).collect();
+        assert_means_agree(what, ("with light paths", &renders(LightPaths::On, 1..9, 64)), ("without", &renders(LightPaths::Off, 11..19, 256)), &all);
     }
 }

@@ -169,6 +169,37 @@ def window_room(scene):
 SCENES = {"cornell-box": cornell, "gold-sphere": gold_sphere, "lamp-hall": lamp_hall, "window-room": window_room, "gold-sphere-bulb": gold_sphere_bulb, "glass-sphere": glass_sphere}
 
 
+def add_sun(scene):
+    """A sun of 3 W·m⁻², 5° across (Blender's default is 0.5°), 50° above
+    the horizon, from the camera's right."""
+    light = bpy.data.lights.new("Sun", "SUN")
+    light.energy, light.angle = 3.0, math.radians(5.0)
+    sun = bpy.data.objects.new("Sun", light)
+    sun.rotation_euler = (math.radians(40), 0, math.radians(30))
+    scene.collection.objects.link(sun)
+
+
+def glass_sphere_sun(scene):
+    """The glass sphere with a sun as well (`add_sun`), whose light the
+    sphere also focuses onto the floor: a camera path finds that caustic
+    only where a BSDF sample goes through the sphere into the sun's
+    5°."""
+    glass_sphere(scene)
+    add_sun(scene)
+
+
+def gold_sphere_sun(scene):
+    """The gold sphere lit by a sun (`add_sun`) instead of its area light,
+    under the same World: the rough gold throws the sun onto the floor."""
+    gold_sphere(scene)
+    bpy.data.objects.remove(scene.objects["Key"])
+    add_sun(scene)
+
+
+# Scenes that only `--scenes` runs: Mitsuba's conversion has no sun.
+MORE_SCENES = {"glass-sphere-sun": glass_sphere_sun, "gold-sphere-sun": gold_sphere_sun}
+
+
 def setup(build, size):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -443,7 +474,7 @@ def main():
     parser.add_argument("--size", type=int, default=64)
     parser.add_argument("--max-spp", type=int, default=256)
     parser.add_argument("--reference-spp", type=int, default=4096)
-    parser.add_argument("--scenes", default=",".join(SCENES))
+    parser.add_argument("--scenes", default=",".join(SCENES), help=f"of {', '.join(SCENES)} (the default) and {', '.join(MORE_SCENES)}")
     parser.add_argument("--mitsuba", action="store_true", help="also Mitsuba 3 (GLINT_BENCH_MITSUBA_VARIANT, default llvm_ad_rgb)")
     parser.add_argument("--seeds", type=int, default=1, help="images per renderer and sample count; the curves are their means")
     parser.add_argument("--min-samples", type=int, default=32, help="more images at low sample counts, until a point's images hold this many samples per pixel")
@@ -465,7 +496,7 @@ def main():
     status = 0
     try:
         for name in args.scenes.split(","):
-            scene = setup(SCENES[name], args.size)
+            scene = setup({**SCENES, **MORE_SCENES}[name], args.size)
             if args.export:
                 folder = Path(args.export) / name
                 folder.mkdir(parents=True, exist_ok=True)
@@ -518,8 +549,8 @@ def main():
                 if renderer != "cycles":
                     bias = ref.reshape(-1, 3).mean(axis=0) / refs["cycles"].reshape(-1, 3).mean(axis=0) - 1
                     print(f"{name}: {renderer} bias against Cycles' reference (R, G, B): {np.round(bias * 100, 2)} %")
-            setup = "" if stats.get("setup") is None else f", set-up outside its times (BVH build, lights) {stats['setup'] * 1000:.0f} ms"
-            print(f"{name}: Glint {stats['mrays']:.1f} Mrays/s at {args.max_spp} spp, peak RSS {stats['memory']}{setup}")
+            outside = "" if stats.get("setup") is None else f", set-up outside its times (BVH build, lights) {stats['setup'] * 1000:.0f} ms"
+            print(f"{name}: Glint {stats['mrays']:.1f} Mrays/s at {args.max_spp} spp, peak RSS {stats['memory']}{outside}")
             glint_curve = curve_of(rows, "glint")
             for peer in [p for p in renderers if p != "glint"]:
                 print(peer_rows(name, peer, rows, glint_curve, blacks[peer]))

@@ -201,6 +201,8 @@ def point_lights(depsgraph):
 def scene_dict(scene, bounces):
     """A Mitsuba scene dict for the Blender scene as Cycles would render it."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
+    if next(lights_of_type(depsgraph, "SUN"), None) is not None:
+        raise ValueError("the Mitsuba conversion has no sun (Mitsuba's directional emitter has no angle)")
     camera = scene.camera
     # Blender's camera looks down −Z with +X right; Mitsuba's down +Z with +X left.
     to_world = np.array(camera.matrix_world) @ np.diag([-1.0, 1.0, -1.0, 1.0])
