@@ -1022,7 +1022,12 @@ fn point_connection_density(ctx: &Context, connect: f32, index: usize, toward_li
         return 0.0;
     }
     let light = &ctx.scene.punctual[index];
-    ctx.lights.point_start_probability(ctx.scene, index) * std::f32::consts::PI * light.start_pdf(toward_light) * connect * cos_to_light / ctx.lights.start_spread(light, light.position.distance_squared(p), -toward_light)
+    // A sun's spread is 0 square to its axis, where no start leaves.
+    let spread = ctx.lights.start_spread(light, light.position.distance_squared(p), -toward_light);
+    if !(spread > 0.0) {
+        return 0.0;
+    }
+    ctx.lights.point_start_probability(ctx.scene, index) * std::f32::consts::PI * light.start_pdf(toward_light) * connect * cos_to_light / spread
 }
 
 /// A point light's, spot's or sun's contribution, f·cosθ·E / p_pick, E

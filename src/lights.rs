@@ -966,8 +966,10 @@ impl Lights {
         }
     }
 
-    /// A start from a sun (`SunStarts`), `u_pick` picking the sun.
-    fn sun_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2) -> Option<PointEmission> {
+    /// A start from a sun (`SunStarts`), `u_pick` picking the sun; with
+    /// `aim`, from the disk an aim sphere casts across the sun's light
+    /// instead of the scene's (its α then not the start's).
+    fn sun_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2, aim: Option<&Aim>) -> Option<PointEmission> {
         let starts = self.sun_starts.as_ref()?;
         let mut rest = u_pick;
         let &(index, within) = starts.suns.iter().find(|&&(_, p)| {
@@ -984,8 +986,14 @@ impl Lights {
         } else {
             (travel, 1.0, light.intensity)
         };
-        let disk = Frame::from_normal(travel).to_world(Vec3::from((crate::sampling::concentric_disk(u_point) * starts.radius).extend(0.0)));
-        let origin = starts.centre - travel * (starts.radius * 1.01) + disk;
+        let origin = match aim {
+            // Behind the scene's sphere, whichever point of it the aim's is.
+            Some(aim) => {
+                let p = aim.across(travel, u_point)?;
+                p - travel * (starts.radius * 1.01 + (p - starts.centre).length())
+            }
+            None => starts.centre - travel * (starts.radius * 1.01) + Frame::from_normal(travel).to_world(Vec3::from((crate::sampling::concentric_disk(u_point) * starts.radius).extend(0.0))),
+        };
         let probability = starts.share * within;
         // α = L·cos·πR² / (p·pdf_dir), the light through the disk a start
         // stands for (E·πR²/p for a sun without a size).
@@ -1006,7 +1014,7 @@ impl Lights {
         let mut u_pick = u_pick;
         if let Some(starts) = &self.sun_starts {
             if u_pick < starts.share {
-                return self.sun_start(scene, u_pick / starts.share, u_point, u_dir).map(Start::Point);
+                return self.sun_start(scene, u_pick / starts.share, u_point, u_dir, aim).map(Start::Point);
             }
             u_pick = ((u_pick - starts.share) / (1.0 - starts.share)).min(1.0 - f32::EPSILON);
         }

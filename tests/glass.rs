@@ -583,6 +583,7 @@ fn the_caustic_guide_keeps_the_image_and_lowers_the_noise_of_caustics_seen_in_th
         ("glass ball at 1/1000", false, 1e-3, None, clear, false),
         ("glass ball under a bulb", false, 1.0, Some(PunctualKind::Point), clear, false),
         ("glass ball under a spot", false, 1.0, Some(spot), clear, false),
+        ("glass ball under a sun", false, 1.0, Some(PunctualKind::Sun), clear, false),
         ("absorbing glass ball", false, 1.0, None, amber, false),
         ("glass ball and another 4.6 m away", false, 1.0, None, clear, true),
     ] {
