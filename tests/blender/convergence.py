@@ -9,7 +9,9 @@ of 32 area lights, a room lit by the World through a window with a
 portal in it, the gold sphere again under a bulb: a point light of
 radius 0.1 m, whose light the gold focuses onto the floor, and a sphere
 of smooth glass in its place, lit from behind, which focuses the area
-light onto the floor before it), it:
+light onto the floor before it; and, named with --scenes, the glass
+sphere with a sun as well and the gold sphere under a sun alone, for
+Glint and Cycles only: mitsuba_scene.py has no sun), it:
 
 1. renders a converged reference with each renderer (--reference-spp
    samples): each renderer's noise is measured against its own converged
