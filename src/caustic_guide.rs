@@ -145,11 +145,22 @@ impl Aim {
     /// the sphere picked by its cross-section, with `u.x`, rescaled, left
     /// to the disk.
     pub fn across(&self, travel: Vec3, u: Vec2) -> Option<Vec3> {
-        let total: f32 = self.spheres.iter().map(|s| s.radius * s.radius).sum();
+        let (s, u) = self.pick(|s| s.radius * s.radius, u)?;
+        Some(crate::sampling::disk_point(s.centre, travel, s.radius, u))
+    }
+
+    /// A sphere picked in proportion to `weight`, with `u.x`, and `u`
+    /// with its x rescaled to what of it the pick left; None when no
+    /// sphere weighs anything.
+    fn pick(&self, weight: impl Fn(&Sphere) -> f32, u: Vec2) -> Option<(&Sphere, Vec2)> {
+        let total: f32 = self.spheres.iter().map(&weight).sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
         let mut rest = u.x * total;
         let mut picked = (self.spheres.last()?, 0.0, 1.0);
         for s in &self.spheres {
-            let w = s.radius * s.radius;
+            let w = weight(s);
             if rest < w {
                 picked = (s, rest, w);
                 break;
@@ -157,8 +168,7 @@ impl Aim {
             rest -= w;
         }
         let (s, rest, w) = picked;
-        let u = Vec2::new((rest / w).clamp(0.0, 1.0 - f32::EPSILON), u.y);
-        Some(s.centre + Frame::from_normal(travel).to_world(Vec3::from((crate::sampling::concentric_disk(u) * s.radius).extend(0.0))))
+        Some((s, Vec2::new((rest / w).clamp(0.0, 1.0 - f32::EPSILON), u.y)))
     }
 
     /// A direction uniformly in one sphere's cone from `from`, in world
@@ -168,28 +178,13 @@ impl Aim {
     pub fn world_direction(&self, from: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
         let (sphere, u) = match self.spheres.as_slice() {
             [one] => (one, u),
-            spheres => {
-                let weight = |s: &Sphere| {
+            _ => self.pick(
+                |s| {
                     let d2 = (s.centre - from).length_squared();
                     if d2 > s.radius * s.radius { s.radius * s.radius / d2 } else { 0.0 }
-                };
-                let total: f32 = spheres.iter().map(weight).sum();
-                if !(total > 0.0 && total.is_finite()) {
-                    return None;
-                }
-                let mut rest = u.x * total;
-                let mut picked = (spheres.last()?, 0.0, 1.0);
-                for s in spheres {
-                    let w = weight(s);
-                    if rest < w {
-                        picked = (s, rest, w);
-                        break;
-                    }
-                    rest -= w;
-                }
-                let (s, rest, w) = picked;
-                (s, Vec2::new((rest / w).clamp(0.0, 1.0 - f32::EPSILON), u.y))
-            }
+                },
+                u,
+            )?,
         };
         let to = sphere.centre - from;
         let d2 = to.length_squared();

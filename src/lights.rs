@@ -499,7 +499,7 @@ const MAX_SUN_SHARE: f32 = 0.25;
 
 impl SunStarts {
     fn new(scene: &Scene, local_power: f64) -> Option<Self> {
-        let radius = scene_radius(scene);
+        let (centre, radius) = scene_sphere(scene);
         let powers: Vec<(usize, f64)> = scene
             .punctual
             .iter()
@@ -513,8 +513,6 @@ impl SunStarts {
             return None;
         }
         let share = if local_power > 0.0 { ((total / (total + local_power)) as f32).min(MAX_SUN_SHARE) } else { 1.0 };
-        let (lo, hi) = crate::scene::bounds(&scene.triangles);
-        let centre = if lo.x > hi.x { Vec3::ZERO } else { (lo + hi) * 0.5 };
         let suns = powers.into_iter().map(|(i, p)| (i, (p / total) as f32)).collect();
         Some(SunStarts { share, suns, centre, radius })
     }
@@ -986,8 +984,7 @@ impl Lights {
         let (dir, pdf_dir, radiance) = if light.size > 0.0 {
             // Within the cone of the sun's disk, of radiance E/(π sin²θ).
             let one_minus_cos = crate::sampling::one_minus_cos(light.size);
-            let s = light.size.sin();
-            (crate::sampling::cone_sample_within(travel, one_minus_cos, u_dir), crate::sampling::cone_pdf(one_minus_cos), light.intensity / (std::f32::consts::PI * s * s))
+            (crate::sampling::cone_sample_within(travel, one_minus_cos, u_dir), crate::sampling::cone_pdf(one_minus_cos), light.sun_radiance())
         } else {
             (travel, 1.0, light.intensity)
         };
@@ -997,7 +994,7 @@ impl Lights {
                 let p = aim.across(travel, u_point)?;
                 p - travel * (starts.radius * 1.01 + (p - starts.centre).length())
             }
-            None => starts.centre - travel * (starts.radius * 1.01) + Frame::from_normal(travel).to_world(Vec3::from((crate::sampling::concentric_disk(u_point) * starts.radius).extend(0.0))),
+            None => crate::sampling::disk_point(starts.centre - travel * (starts.radius * 1.01), travel, starts.radius, u_point),
         };
         let probability = starts.share * within;
         // α = L·cos·πR² / (p·pdf_dir), the light through the disk a start
@@ -1158,8 +1155,14 @@ pub fn solid_angle_density(pdf_area: f32, dist2: f32, cos_light: f32) -> f32 {
 /// Radius of a sphere about the bounds' centre that holds every surface,
 /// where the sun's and the World's power is counted (at least 1 m).
 fn scene_radius(scene: &Scene) -> f32 {
+    scene_sphere(scene).1
+}
+
+/// `scene_radius`'s sphere: its centre (the origin in an empty scene)
+/// and radius.
+fn scene_sphere(scene: &Scene) -> (Vec3, f32) {
     let (lo, hi) = crate::scene::bounds(&scene.triangles);
-    if lo.x > hi.x { 1.0 } else { (0.5 * (hi - lo).length()).max(1.0) }
+    if lo.x > hi.x { (Vec3::ZERO, 1.0) } else { ((lo + hi) * 0.5, (0.5 * (hi - lo).length()).max(1.0)) }
 }
 
 #[cfg(test)]

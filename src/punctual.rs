@@ -29,7 +29,7 @@
 //! shadow. With r = 0 only light sampling
 //! reaches a light, and its samples take the full weight.
 
-use crate::sampling::{concentric_disk, cone_pdf, cone_sample_within, one_minus_cos, Frame};
+use crate::sampling::{cone_pdf, cone_sample_within, disk_point, one_minus_cos};
 use glam::Vec2;
 use crate::Vec3;
 use std::f32::consts::PI;
@@ -140,8 +140,7 @@ impl PunctualLight {
             // A disk facing p (also inside a sphere light, where no cone
             // is subtended).
             let n = -to_light / d;
-            let frame = Frame::from_normal(n);
-            let q = self.position + frame.to_world(Vec3::from((concentric_disk(u) * r).extend(0.0)));
+            let q = disk_point(self.position, n, r, u);
             let to_q = q - p;
             let t2 = to_q.length_squared();
             let t = t2.sqrt();
@@ -178,7 +177,7 @@ impl PunctualLight {
     /// (`start`'s, or the caustic guide's cone toward the glass: a spot's
     /// light outside its cone is then zero). Not for a sun.
     pub fn start_along(&self, u_point: Vec2, dir: Vec3, pdf_dir: f32) -> Start {
-        let origin = if self.size > 0.0 { self.position + Frame::from_normal(dir).to_world(Vec3::from((concentric_disk(u_point) * self.size).extend(0.0))) } else { self.position };
+        let origin = if self.size > 0.0 { disk_point(self.position, dir, self.size, u_point) } else { self.position };
         Start { origin, dir, intensity: self.intensity * self.cone(-dir), pdf_dir }
     }
 
@@ -201,11 +200,26 @@ impl PunctualLight {
             PunctualKind::Spot { cos_outer, .. } if self.cone(toward_light) > 0.0 => cone_pdf(1.0 - cos_outer),
             PunctualKind::Sun if self.size > 0.0 => {
                 let cone = one_minus_cos(self.size);
-                if (toward_light + self.direction).length_squared() * 0.5 <= cone { cone_pdf(cone) } else { 0.0 }
+                if self.within_sun(toward_light, cone) { cone_pdf(cone) } else { 0.0 }
             }
             PunctualKind::Sun => 1.0,
             _ => 0.0,
         }
+    }
+
+    /// Whether unit `toward_light` lies within a sized sun's disk, whose
+    /// 1 − cos of its angular radius is `cone`: 1 − cos of the angle to
+    /// the sun's centre is |toward_light + direction|²/2, which keeps a
+    /// small sun's.
+    fn within_sun(&self, toward_light: Vec3, cone: f32) -> bool {
+        (toward_light + self.direction).length_squared() * 0.5 <= cone
+    }
+
+    /// A sized sun's radiance, E/(π sin²θ) for its irradiance E and
+    /// angular radius θ.
+    pub fn sun_radiance(&self) -> Vec3 {
+        let s = self.size.sin();
+        self.intensity / (PI * s * s)
     }
 
     /// The spot's attenuation for light leaving towards −`wi` (1 for
@@ -230,13 +244,11 @@ impl PunctualLight {
             return None;
         }
         if let PunctualKind::Sun = self.kind {
-            // 1 − cos of the angle to the sun's centre is |d − axis|²/2.
             let cone = one_minus_cos(self.size);
-            if t_max < f32::INFINITY || (d + self.direction).length_squared() * 0.5 > cone {
+            if t_max < f32::INFINITY || !self.within_sun(d, cone) {
                 return None;
             }
-            let s = self.size.sin();
-            return Some(Seen { radiance: self.intensity / (PI * s * s), pdf: cone_pdf(cone) });
+            return Some(Seen { radiance: self.sun_radiance(), pdf: cone_pdf(cone) });
         }
         let to_light = self.position - o;
         let d2 = to_light.length_squared();

@@ -61,6 +61,12 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     }
 }
 
+/// A point uniform on the disk of radius `r` about `centre`, square to
+/// unit `axis` (a sized light's, or a sun's disk of starts).
+pub fn disk_point(centre: Vec3, axis: Vec3, r: f32, u: Vec2) -> Vec3 {
+    centre + Frame::from_normal(axis).to_world(Vec3::from((concentric_disk(u) * r).extend(0.0)))
+}
+
 /// sin and cos of |x| ≤ π/4 to within 1e-7, by polynomials fitted on that
 /// interval: libm's `sincosf` reduces any angle first, which was 1.5% of a
 /// render's time by perf's clock samples (every diffuse bounce draws a
