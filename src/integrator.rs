@@ -135,7 +135,11 @@ impl<'a> Context<'a> {
         let lights = Lights::new(scene);
         let features = Features::of(scene);
         let emitters_in_media = features.absorbing > 0 && media::emitters_inside(scene, &accel, &lights.triangles);
-        (Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default(), caustic_guide: Default::default(), emitters_in_media }, surface_time + lamp_time)
+        let mut ctx = Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default(), caustic_guide: Default::default(), emitters_in_media };
+        // Where suns start light subpaths needs the BVH (sun_cells.rs).
+        let cells = ctx.lights.sun_cells(&ctx);
+        ctx.lights.place_sun_starts(cells);
+        (ctx, surface_time + lamp_time)
     }
 
     /// The kernel these settings run on this scene.
@@ -1023,7 +1027,7 @@ fn point_connection_density(ctx: &Context, connect: f32, index: usize, toward_li
     }
     let light = &ctx.scene.punctual[index];
     // A sun's spread is 0 square to its axis, where no start leaves.
-    let spread = ctx.lights.start_spread(light, light.position.distance_squared(p), -toward_light);
+    let spread = ctx.lights.start_spread(ctx.scene, index, light.position.distance_squared(p), -toward_light, p);
     if !(spread > 0.0) {
         return 0.0;
     }

@@ -44,6 +44,7 @@ pub mod softbox;
 pub mod spherical_rectangle;
 pub mod spherical_triangle;
 pub mod strategies;
+pub mod sun_cells;
 pub mod texture;
 pub mod traversal_bench;
 pub mod triangle_pack;

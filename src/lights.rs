@@ -43,6 +43,7 @@ use crate::caustic_guide::Aim;
 use crate::integrator::{offset_origin, point_on_triangle};
 use crate::material::Material;
 use crate::sampling::{cosine_hemisphere, uniform_triangle, Distribution1D, Frame};
+use crate::sun_cells::SunCells;
 use crate::shading::{self, Barycentric};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
@@ -476,25 +477,42 @@ pub enum Start {
 /// light (or uniformly within its cone, for a sized sun). A start stands
 /// for the light E·πR² that crosses the disk; each sun is picked by that
 /// power, and the suns together take `share` of all starts.
+/// Once the scene's BVH is built (`Lights::place_sun_starts`), a start's
+/// point is drawn from the cells of a square about that disk instead,
+/// by where the sun's light through each lands (sun_cells.rs), and each
+/// sun's power counts only for the share of it that lands in view.
 struct SunStarts {
     /// Of all subpaths: the suns' part of the power where other lights
     /// start some too, at most `MAX_SUN_SHARE`; else all of them.
     share: f32,
     /// Each sun's scene punctual index and its probability among the suns.
     suns: Vec<(usize, f32)>,
+    /// Each sun's power E·πR², as `suns` orders them, and the local
+    /// lights' together: what `Lights::place_sun_starts` weighs again.
+    powers: Vec<f64>,
+    local_power: f64,
     centre: Vec3,
     radius: f32,
+    /// Each sun's cells, as `suns` orders them; empty before
+    /// `Lights::place_sun_starts`.
+    cells: Vec<SunCells>,
 }
 
 /// The suns' share of the light subpaths' starts at most, where other
 /// lights start subpaths too: a sun's power over the scene's disk may be
 /// light that lands outside, on a roof or a ground plane, and would leave
-/// a room's lamps few subpaths. The Cornell box under a sun its roof
-/// hides (relMSE at 16 spp, 8 seeds, against the build before suns
-/// started subpaths): +8.0% ± 0.4 at a quarter, +20.7% ± 0.4 at a half;
-/// the glass sphere with a 5° sun beside its lamp, whose caustic the
-/// sun's subpaths carry: at 4 spp −41% ± 23 at a quarter and −68% ± 28 at
-/// a half (16 seeds), at 16 spp −55% ± 20 at a quarter (8 seeds).
+/// a room's lamps few subpaths. With starts uniform on the disk and the
+/// suns' whole power counted, the Cornell box under a sun its roof hides
+/// (relMSE at 16 spp, 8 seeds, against the build before suns started
+/// subpaths): +8.0% ± 0.4 at a quarter, +20.7% ± 0.4 at a half; the glass
+/// sphere with a 5° sun beside its lamp, whose caustic the sun's subpaths
+/// carry: at 4 spp −41% ± 23 at a quarter and −68% ± 28 at a half (16
+/// seeds), at 16 spp −55% ± 20 at a quarter (8 seeds). Now that a sun's
+/// power counts only for its share that lands in view (sun_cells.rs),
+/// the roof-hidden sun starts none, and the glass sphere's share is
+/// below a quarter (the same image with the bound at 1): the bound stays
+/// for a sun whose light lands in view but outside a room, through its
+/// window.
 const MAX_SUN_SHARE: f32 = 0.25;
 
 impl SunStarts {
@@ -512,9 +530,23 @@ impl SunStarts {
         if !(total > 0.0 && total.is_finite()) {
             return None;
         }
-        let share = if local_power > 0.0 { ((total / (total + local_power)) as f32).min(MAX_SUN_SHARE) } else { 1.0 };
-        let suns = powers.into_iter().map(|(i, p)| (i, (p / total) as f32)).collect();
-        Some(SunStarts { share, suns, centre, radius })
+        let mut starts = SunStarts { share: 0.0, suns: powers.iter().map(|&(i, _)| (i, 0.0)).collect(), powers: powers.iter().map(|&(_, p)| p).collect(), local_power, centre, radius, cells: Vec::new() };
+        starts.weigh(&vec![1.0; powers.len()]);
+        Some(starts)
+    }
+
+    /// The suns' probabilities and share from their powers, each times
+    /// the share of its light that counts (`seen`, as `suns` orders
+    /// them); by their whole powers where none of it does, without other
+    /// lights to start subpaths.
+    fn weigh(&mut self, seen: &[f32]) {
+        let counted: Vec<f64> = self.powers.iter().zip(seen).map(|(&p, &f)| p * f as f64).collect();
+        let total: f64 = counted.iter().sum();
+        let (counted, total) = if total > 0.0 || self.local_power > 0.0 { (counted, total) } else { (self.powers.clone(), self.powers.iter().sum()) };
+        self.share = if self.local_power > 0.0 { ((total / (total + self.local_power)) as f32).min(MAX_SUN_SHARE) } else { 1.0 };
+        for (sun, p) in self.suns.iter_mut().zip(counted) {
+            sun.1 = if total > 0.0 { (p / total) as f32 } else { 0.0 };
+        }
     }
 
     /// Sun `index`'s probability among the suns; 0 for any other light.
@@ -962,11 +994,43 @@ impl Lights {
     /// disk's area over the cosine between `travel` and the sun's light (a
     /// start's point is uniform on the disk, which that cosine narrows as
     /// seen along `travel`).
-    pub fn start_spread(&self, light: &crate::punctual::PunctualLight, d2: f32, travel: Vec3) -> f32 {
+    /// With the suns' cells placed, the cosine over the cells' density
+    /// (per unit area) where the line through `p` (the point reached)
+    /// along `travel` crosses them: infinite where they draw nothing.
+    pub fn start_spread(&self, scene: &Scene, index: usize, d2: f32, travel: Vec3, p: Vec3) -> f32 {
+        let light = &scene.punctual[index];
         match (&self.sun_starts, light.kind) {
-            (Some(s), crate::punctual::PunctualKind::Sun) => std::f32::consts::PI * s.radius * s.radius * travel.dot(light.direction).max(0.0),
+            (Some(s), crate::punctual::PunctualKind::Sun) => {
+                let cos = travel.dot(light.direction).max(0.0);
+                match s.suns.iter().position(|&(i, _)| i == index).and_then(|k| s.cells.get(k)) {
+                    Some(cells) => {
+                        let density = cells.density(p, travel);
+                        if density > 0.0 { cos / density } else { f32::INFINITY }
+                    }
+                    None => std::f32::consts::PI * s.radius * s.radius * cos,
+                }
+            }
             _ => light.start_spread(d2),
         }
+    }
+
+    /// The cells each sun's subpaths start from, and the share of its
+    /// light that lands in view (sun_cells.rs), for `place_sun_starts`.
+    pub fn sun_cells(&self, ctx: &crate::integrator::Context) -> Vec<(SunCells, f32)> {
+        let Some(starts) = &self.sun_starts else { return Vec::new() };
+        starts.suns.iter().map(|&(i, _)| SunCells::new(ctx, ctx.scene.punctual[i].direction, starts.centre, starts.radius)).collect()
+    }
+
+    /// Suns' starts from `cells` (`sun_cells`), each sun weighed by the
+    /// share of its light that lands in view.
+    pub fn place_sun_starts(&mut self, cells: Vec<(SunCells, f32)>) {
+        let Some(starts) = &mut self.sun_starts else { return };
+        if cells.len() != starts.suns.len() {
+            return;
+        }
+        let (cells, seen): (Vec<SunCells>, Vec<f32>) = cells.into_iter().unzip();
+        starts.weigh(&seen);
+        starts.cells = cells;
     }
 
     /// A start from a sun (`SunStarts`), `u_pick` picking the sun; with
@@ -975,10 +1039,11 @@ impl Lights {
     fn sun_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2, aim: Option<&Aim>) -> Option<PointEmission> {
         let starts = self.sun_starts.as_ref()?;
         let mut rest = u_pick;
-        let &(index, within) = starts.suns.iter().find(|&&(_, p)| {
+        let k = starts.suns.iter().position(|&(_, p)| {
             rest -= p;
             rest < 0.0
-        }).or(starts.suns.last())?;
+        }).or(starts.suns.len().checked_sub(1))?;
+        let (index, within) = starts.suns[k];
         let light = scene.punctual.get(index)?;
         let travel = light.direction;
         let (dir, pdf_dir, radiance) = if light.size > 0.0 {
@@ -988,18 +1053,27 @@ impl Lights {
         } else {
             (travel, 1.0, light.intensity)
         };
+        let mut area = std::f32::consts::PI * starts.radius * starts.radius;
         let origin = match aim {
             // Behind the scene's sphere, whichever point of it the aim's is.
             Some(aim) => {
                 let p = aim.across(travel, u_point)?;
                 p - travel * (starts.radius * 1.01 + (p - starts.centre).length())
             }
-            None => crate::sampling::disk_point(starts.centre - travel * (starts.radius * 1.01), travel, starts.radius, u_point),
+            None => match starts.cells.get(k) {
+                Some(cells) => {
+                    let (origin, density) = cells.sample(u_point);
+                    area = 1.0 / density;
+                    origin
+                }
+                None => crate::sampling::disk_point(starts.centre - travel * (starts.radius * 1.01), travel, starts.radius, u_point),
+            },
         };
         let probability = starts.share * within;
-        // α = L·cos·πR² / (p·pdf_dir), the light through the disk a start
-        // stands for (E·πR²/p for a sun without a size).
-        let alpha = radiance * (dir.dot(travel) * std::f32::consts::PI * starts.radius * starts.radius / (probability * pdf_dir));
+        // α = L·cos·A / (p·pdf_dir), the light through the area A a start
+        // stands for (E·A/p for a sun without a size): the disk's πR², or
+        // one over the cells' density at the start's point.
+        let alpha = radiance * (dir.dot(travel) * area / (probability * pdf_dir));
         (alpha.is_finite() && alpha.max_element() > 0.0 && origin.is_finite()).then_some(PointEmission { index: index as u32, origin, dir, alpha, probability, pdf_dir })
     }
 

@@ -10,8 +10,9 @@ portal in it, the gold sphere again under a bulb: a point light of
 radius 0.1 m, whose light the gold focuses onto the floor, and a sphere
 of smooth glass in its place, lit from behind, which focuses the area
 light onto the floor before it; and, named with --scenes, the glass
-sphere with a sun as well and the gold sphere under a sun alone, for
-Glint and Cycles only: mitsuba_scene.py has no sun), it:
+sphere with a sun as well, the gold sphere under a sun alone and the
+window room with a sun shining in on a gold ball, for Glint and Cycles
+only: mitsuba_scene.py has no sun), it:
 
 1. renders a converged reference with each renderer (--reference-spp
    samples): each renderer's noise is measured against its own converged
@@ -198,8 +199,25 @@ def gold_sphere_sun(scene):
     add_sun(scene)
 
 
+def window_room_sun(scene):
+    """The window room with a sun of 3 W·m⁻², 5° across, 35° above the
+    horizon, shining in at its window onto a rough gold ball (0.4 m) on
+    the floor, and no lamp: most of the sun's light lands on the room's
+    outside, where no camera ray goes."""
+    window_room(scene)
+    light = bpy.data.lights.new("Sun", "SUN")
+    light.energy, light.angle = 3.0, math.radians(5.0)
+    sun = bpy.data.objects.new("Sun", light)
+    sun.rotation_euler = (0.0, math.radians(55), 0.0)  # its light along −X, down 35°
+    scene.collection.objects.link(sun)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=0.4, location=(0.0, 0.0, 0.4))
+    bpy.ops.object.shade_smooth()
+    give_principled(bpy.context.object, "Gold", Base_Color=(1.0, 0.71, 0.29, 1), Metallic=1.0, Roughness=0.3)
+    bpy.context.view_layer.update()
+
+
 # Scenes that only `--scenes` runs: Mitsuba's conversion has no sun.
-MORE_SCENES = {"glass-sphere-sun": glass_sphere_sun, "gold-sphere-sun": gold_sphere_sun}
+MORE_SCENES = {"glass-sphere-sun": glass_sphere_sun, "gold-sphere-sun": gold_sphere_sun, "window-room-sun": window_room_sun}
 
 
 def setup(build, size):
