@@ -19,11 +19,21 @@ use glam::Vec2;
 const CELLS: usize = 64;
 /// The starts' shares: uniform over the square (so that every point the
 /// sun's light crosses keeps a start, however the test below judged its
-/// cell), over the cells whose light meets a surface, and over those
-/// whose light lands in view. Shares of absent kinds go to the others.
+/// cell), over the cells whose light meets a surface, over those whose
+/// light lands in view, and over those whose light lands in view on a
+/// surface that focuses it (glass, or glossy enough for a caustic,
+/// `Material::focuses_light`), or passes glass on its way. Without the
+/// last kind its share is the third's; shares of other absent kinds go
+/// to the rest. Against 80% in view and none focused (relMSE, paired
+/// seeds): the gold sphere under a 5° sun −39% ± 5 at 4 spp and −43% ± 5
+/// at 16 for 6% more time a sample (70% focused: −47% at 4 spp); the
+/// glass sphere with the sun beside its lamp −1.8% ± 0.5 at 4 spp; the
+/// window room with the sun on its gold ball +2.3% ± 1.2 at 16 spp (70%:
+/// +8.8%), where the light the floor sends on is most of the image.
 const UNIFORM: f64 = 0.05;
 const MEETS: f64 = 0.15;
-const IN_VIEW: f64 = 0.8;
+const IN_VIEW: f64 = 0.4;
+const FOCUSED: f64 = 0.4;
 /// Glass a cell's light passes through before it lands, at most.
 const PANES: u32 = 4;
 
@@ -50,7 +60,8 @@ impl SunCells {
         let mut rng = Rng::new(0x7375_6e5f_6365_6c6c, 0);
         let mut meets = vec![false; CELLS * CELLS];
         let mut seen = vec![false; CELLS * CELLS];
-        let (mut in_disk, mut in_view) = (0u32, 0u32);
+        let mut focused = vec![false; CELLS * CELLS];
+        let (mut in_disk, mut in_view_count) = (0u32, 0u32);
         for i in 0..CELLS * CELLS {
             let local = square.local_point(i, rng.next_2d());
             let mut origin = square.world_point(local);
@@ -60,6 +71,9 @@ impl SunCells {
             for _ in 0..PANES {
                 let Some(hit) = ctx.intersect(origin, travel, RayKind::Bounce, &mut rng) else { break };
                 let (si, _) = SurfaceHit::with_normal(ctx.scene, &hit, travel, &mut rng);
+                // A roughness texture is taken as smooth somewhere.
+                let m = ctx.scene.material_of(hit.triangle);
+                focused[i] |= m.transmission > 0.0 || m.focuses_light(|_| 0.0);
                 let view = in_sight(ctx, &lens, &si, &mut rng);
                 lands = Some(view);
                 if view || ctx.scene.material_of(hit.triangle).transmission <= 0.0 {
@@ -69,17 +83,20 @@ impl SunCells {
             }
             meets[i] = lands.is_some();
             seen[i] = lands == Some(true) || (lands.is_some() && !lens.joinable());
+            focused[i] &= seen[i];
             if local.length_squared() <= 1.0 {
                 in_disk += 1;
-                in_view += seen[i] as u32;
+                in_view_count += seen[i] as u32;
             }
         }
-        let (meets, seen) = (dilate(&meets), dilate(&seen));
+        let (meets, seen, focused) = (dilate(&meets), dilate(&seen), dilate(&focused));
         let count = |m: &[bool]| m.iter().filter(|&&b| b).count().max(1) as f64;
-        let (n_meets, n_seen) = (count(&meets), count(&seen));
-        let weights = (0..CELLS * CELLS).map(|i| UNIFORM / (CELLS * CELLS) as f64 + if meets[i] { MEETS / n_meets } else { 0.0 } + if seen[i] { IN_VIEW / n_seen } else { 0.0 });
-        let share = if in_disk > 0 { in_view as f32 / in_disk as f32 } else { 0.0 };
-        (SunCells { cells: Distribution1D::new(weights), ..square }, share)
+        let (n_meets, n_seen, n_focused) = (count(&meets), count(&seen), count(&focused));
+        let (in_view, focus) = if focused.contains(&true) { (IN_VIEW, FOCUSED) } else { (IN_VIEW + FOCUSED, 0.0) };
+        let share = |set: bool, of: f64, n: f64| if set { of / n } else { 0.0 };
+        let weights = (0..CELLS * CELLS).map(|i| UNIFORM / (CELLS * CELLS) as f64 + share(meets[i], MEETS, n_meets) + share(seen[i], in_view, n_seen) + share(focused[i], focus, n_focused));
+        let landed = if in_disk > 0 { in_view_count as f32 / in_disk as f32 } else { 0.0 };
+        (SunCells { cells: Distribution1D::new(weights), ..square }, landed)
     }
 
     /// Cell `i`'s point at `u` within it, in units of the half-side
