@@ -76,7 +76,7 @@ impl SunCells {
                 focused[i] |= m.transmission > 0.0 || m.focuses_light(|_| 0.0);
                 let view = in_sight(ctx, &lens, &si, &mut rng);
                 lands = Some(view);
-                if view || ctx.scene.material_of(hit.triangle).transmission <= 0.0 {
+                if view || m.transmission <= 0.0 {
                     break;
                 }
                 origin = si.spawn_origin(travel);
