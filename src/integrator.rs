@@ -306,6 +306,16 @@ impl<'a> Context<'a> {
         self.scene.material_of(triangle).hidden_from_camera
     }
 
+    /// Whether nothing blocks the way from `origin` to the lens point a
+    /// projection `seen` found, up to Clip Start (camera rays see nothing
+    /// nearer): light tracing's test, and the sun cells'.
+    pub(crate) fn clear_to_camera(&self, origin: Vec3, seen: &crate::camera::Seen, rng: &mut Rng) -> bool {
+        let to_camera = seen.lens_point - origin;
+        let length = to_camera.length();
+        let clear = length - seen.skipped;
+        clear > 0.0 && !self.occluded_toward_camera(origin, to_camera / length, clear, rng)
+    }
+
     /// Whether the way from a point to the camera is blocked: a shadow ray
     /// that passes what is hidden from the camera, as camera rays do.
     #[inline]

@@ -122,12 +122,7 @@ impl LightTracing<'_> {
             return;
         }
         *rays += 1;
-        let origin = y.spawn_origin(w);
-        let to_camera = seen.lens_point - origin;
-        let length = to_camera.length();
-        // Up to Clip Start: camera rays see nothing nearer.
-        let clear = length - seen.skipped;
-        if !(clear > 0.0) || ctx.occluded_toward_camera(origin, to_camera / length, clear, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
+        if !ctx.clear_to_camera(y.spawn_origin(w), &seen, rng) || !self.strategies.keeps(Strategy::Tracing, v.depth) {
             out.truncate(start);
         }
     }

@@ -147,11 +147,7 @@ pub(crate) fn in_sight(ctx: &Context, lens: &crate::camera::Lens, si: &SurfaceHi
     if seen.pixel.is_none() || !(si.ng.dot(seen.to_camera) > 0.0) {
         return false;
     }
-    let origin = si.spawn_origin(seen.to_camera);
-    let to_camera = seen.lens_point - origin;
-    let length = to_camera.length();
-    let clear = length - seen.skipped;
-    clear > 0.0 && !ctx.occluded_toward_camera(origin, to_camera / length, clear, rng)
+    ctx.clear_to_camera(si.spawn_origin(seen.to_camera), &seen, rng)
 }
 
 /// Each cell set where it or one of its eight neighbours is: a sized
