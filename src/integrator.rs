@@ -137,8 +137,7 @@ impl<'a> Context<'a> {
         let emitters_in_media = features.absorbing > 0 && media::emitters_inside(scene, &accel, &lights.triangles);
         let mut ctx = Context { scene, accel, lamps, lights, features, ray_log: None, bin_camera_rays: true, light_paths_pay: Default::default(), caustic_guide: Default::default(), emitters_in_media };
         // Where suns start light subpaths needs the BVH (sun_cells.rs).
-        let cells = ctx.lights.sun_cells(&ctx);
-        ctx.lights.place_sun_starts(cells);
+        Lights::place_sun_starts(&mut ctx);
         (ctx, surface_time + lamp_time)
     }
 
@@ -1027,9 +1026,10 @@ fn world_seen(ctx: &Context, dir: Vec3, from: &Previous, mis: bool) -> Vec3 {
 /// p_start·π·pdf_dir·cos/d² over the pick's probability for a light of
 /// radius 0, p_start·π·pdf_dir·cos/(πr²) over the pick's times the facing
 /// disk's solid-angle density for a sized one (`PunctualLight::start`);
-/// for a sun, p_start·π·pdf_dir·cos/(πR²·cos_d) over the same, R the
-/// radius of the disk its subpaths start on and cos_d the cosine between
-/// the way the light arrives and the sun's axis (`Lights::start_spread`).
+/// for a sun, p_start·π·pdf_dir·cos·p_A/cos_d over the same, p_A the
+/// density per unit area of its subpaths' starts where the line back
+/// along the arriving light crosses their square, and cos_d the cosine
+/// between that light and the sun's axis (`Lights::start_spread`).
 #[inline]
 fn point_connection_density(ctx: &Context, connect: f32, index: usize, toward_light: Vec3, cos_to_light: f32, p: Vec3) -> f32 {
     if !(connect > 0.0 && cos_to_light > 0.0) {

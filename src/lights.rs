@@ -471,31 +471,32 @@ pub enum Start {
     Point(PointEmission),
 }
 
-/// Where light subpaths start from suns: on the disk square to a sun's
-/// light that the scene's bounding sphere casts (its radius R, just
-/// outside the sphere), a point uniform on it, leaving along the sun's
-/// light (or uniformly within its cone, for a sized sun). A start stands
-/// for the light E·πR² that crosses the disk; each sun is picked by that
-/// power, and the suns together take `share` of all starts.
-/// Once the scene's BVH is built (`Lights::place_sun_starts`), a start's
-/// point is drawn from the cells of a square about that disk instead,
-/// by where the sun's light through each lands (sun_cells.rs), and each
-/// sun's power counts only for the share of it that lands in view.
+/// Where light subpaths start from suns: on a square across a sun's
+/// light about the scene's bounding sphere (its radius R, just outside
+/// the sphere), drawn from cells by where the sun's light through each
+/// lands (sun_cells.rs), leaving along the sun's light (or uniformly
+/// within its cone, for a sized sun). A start stands for the light that
+/// crosses the area one over the cells' density there. Each sun is picked
+/// by its power E·πR² times the share of its light that lands in view,
+/// and the suns together take `share` of all starts. Placed once the
+/// scene's BVH is built (`Lights::place_sun_starts`); before, suns start
+/// no subpaths.
 struct SunStarts {
     /// Of all subpaths: the suns' part of the power where other lights
     /// start some too, at most `MAX_SUN_SHARE`; else all of them.
     share: f32,
-    /// Each sun's scene punctual index and its probability among the suns.
-    suns: Vec<(usize, f32)>,
-    /// Each sun's power E·πR², as `suns` orders them, and the local
-    /// lights' together: what `Lights::place_sun_starts` weighs again.
-    powers: Vec<f64>,
-    local_power: f64,
+    suns: Vec<SunStart>,
     centre: Vec3,
     radius: f32,
-    /// Each sun's cells, as `suns` orders them; empty before
-    /// `Lights::place_sun_starts`.
-    cells: Vec<SunCells>,
+}
+
+/// One sun's part of `SunStarts`.
+struct SunStart {
+    /// The sun's index among the scene's punctual lights.
+    index: usize,
+    /// Its probability among the suns.
+    probability: f32,
+    cells: SunCells,
 }
 
 /// The suns' share of the light subpaths' starts at most, where other
@@ -516,9 +517,12 @@ struct SunStarts {
 const MAX_SUN_SHARE: f32 = 0.25;
 
 impl SunStarts {
-    fn new(scene: &Scene, local_power: f64) -> Option<Self> {
+    /// The suns' starts, once `ctx`'s BVH is built, beside local lights of
+    /// power `local_power`: None without a sun that shines.
+    fn new(ctx: &crate::integrator::Context, local_power: f64) -> Option<Self> {
+        let scene = ctx.scene;
         let (centre, radius) = scene_sphere(scene);
-        let powers: Vec<(usize, f64)> = scene
+        let suns: Vec<(usize, f64)> = scene
             .punctual
             .iter()
             .enumerate()
@@ -526,32 +530,34 @@ impl SunStarts {
             .map(|(i, l)| (i, l.power(radius)))
             .filter(|&(_, p)| p > 0.0 && p.is_finite())
             .collect();
-        let total: f64 = powers.iter().map(|&(_, p)| p).sum();
-        if !(total > 0.0 && total.is_finite()) {
+        if suns.is_empty() {
             return None;
         }
-        let mut starts = SunStarts { share: 0.0, suns: powers.iter().map(|&(i, _)| (i, 0.0)).collect(), powers: powers.iter().map(|&(_, p)| p).collect(), local_power, centre, radius, cells: Vec::new() };
-        starts.weigh(&vec![1.0; powers.len()]);
-        Some(starts)
-    }
-
-    /// The suns' probabilities and share from their powers, each times
-    /// the share of its light that counts (`seen`, as `suns` orders
-    /// them); by their whole powers where none of it does, without other
-    /// lights to start subpaths.
-    fn weigh(&mut self, seen: &[f32]) {
-        let counted: Vec<f64> = self.powers.iter().zip(seen).map(|(&p, &f)| p * f as f64).collect();
+        let placed: Vec<(usize, f64, SunCells, f32)> = suns
+            .into_iter()
+            .map(|(i, power)| {
+                let (cells, seen) = SunCells::new(ctx, scene.punctual[i].direction, centre, radius);
+                (i, power, cells, seen)
+            })
+            .collect();
+        // Each sun's power times the share of its light that lands in
+        // view; their whole powers where none of it does, without other
+        // lights to start subpaths.
+        let seen: Vec<f64> = placed.iter().map(|&(_, p, _, f)| p * f as f64).collect();
+        let counted = if seen.iter().sum::<f64>() > 0.0 || local_power > 0.0 { seen } else { placed.iter().map(|&(_, p, _, _)| p).collect() };
         let total: f64 = counted.iter().sum();
-        let (counted, total) = if total > 0.0 || self.local_power > 0.0 { (counted, total) } else { (self.powers.clone(), self.powers.iter().sum()) };
-        self.share = if self.local_power > 0.0 { ((total / (total + self.local_power)) as f32).min(MAX_SUN_SHARE) } else { 1.0 };
-        for (sun, p) in self.suns.iter_mut().zip(counted) {
-            sun.1 = if total > 0.0 { (p / total) as f32 } else { 0.0 };
-        }
+        let share = if local_power > 0.0 { ((total / (total + local_power)) as f32).min(MAX_SUN_SHARE) } else { 1.0 };
+        let suns = placed
+            .into_iter()
+            .zip(counted)
+            .map(|((index, _, cells, _), p)| SunStart { index, probability: if total > 0.0 { (p / total) as f32 } else { 0.0 }, cells })
+            .collect();
+        Some(SunStarts { share, suns, centre, radius })
     }
 
     /// Sun `index`'s probability among the suns; 0 for any other light.
     fn probability(&self, index: usize) -> f32 {
-        self.suns.iter().find(|&&(i, _)| i == index).map_or(0.0, |&(_, p)| p)
+        self.suns.iter().find(|s| s.index == index).map_or(0.0, |s| s.probability)
     }
 }
 
@@ -604,7 +610,6 @@ impl Lights {
         let weights = |world: f32| DistantWeights { world, total: world + sunlight };
         let tree = LocalTree::new(scene, &triangles, &records, &softboxes, &powers);
         let distribution = Distribution1D::new(powers);
-        let sun_starts = SunStarts::new(scene, distribution.total());
         let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
         Lights {
             // π/P_total once: a division in f64 had been a tenth of a light sample.
@@ -618,7 +623,7 @@ impl Lights {
             local,
             suns,
             sized,
-            sun_starts,
+            sun_starts: None,
             tree,
             portals: Portals::new(scene.portals.clone()),
             softboxes,
@@ -991,46 +996,22 @@ impl Lights {
     /// What `start_pdf` of punctual light `light` is divided by toward a
     /// point at squared distance `d2` that a start leaving along unit
     /// `travel` reaches (`PunctualLight::start_spread`): for a sun, the
-    /// disk's area over the cosine between `travel` and the sun's light (a
-    /// start's point is uniform on the disk, which that cosine narrows as
-    /// seen along `travel`).
-    /// With the suns' cells placed, the cosine over the cells' density
+    /// cosine between `travel` and the sun's light over the cells' density
     /// (per unit area) where the line through `p` (the point reached)
-    /// along `travel` crosses them: infinite where they draw nothing.
+    /// along `travel` crosses them (`SunStarts`): infinite where they draw
+    /// nothing, or the sun starts no subpaths.
     pub fn start_spread(&self, scene: &Scene, index: usize, d2: f32, travel: Vec3, p: Vec3) -> f32 {
         let light = &scene.punctual[index];
-        match (&self.sun_starts, light.kind) {
-            (Some(s), crate::punctual::PunctualKind::Sun) => {
-                let cos = travel.dot(light.direction).max(0.0);
-                match s.suns.iter().position(|&(i, _)| i == index).and_then(|k| s.cells.get(k)) {
-                    Some(cells) => {
-                        let density = cells.density(p, travel);
-                        if density > 0.0 { cos / density } else { f32::INFINITY }
-                    }
-                    None => std::f32::consts::PI * s.radius * s.radius * cos,
-                }
-            }
-            _ => light.start_spread(d2),
+        if light.kind != crate::punctual::PunctualKind::Sun {
+            return light.start_spread(d2);
         }
+        let density = self.sun_starts.as_ref().and_then(|s| s.suns.iter().find(|s| s.index == index)).map_or(0.0, |s| s.cells.density(p, travel));
+        if density > 0.0 { travel.dot(light.direction).max(0.0) / density } else { f32::INFINITY }
     }
 
-    /// The cells each sun's subpaths start from, and the share of its
-    /// light that lands in view (sun_cells.rs), for `place_sun_starts`.
-    pub fn sun_cells(&self, ctx: &crate::integrator::Context) -> Vec<(SunCells, f32)> {
-        let Some(starts) = &self.sun_starts else { return Vec::new() };
-        starts.suns.iter().map(|&(i, _)| SunCells::new(ctx, ctx.scene.punctual[i].direction, starts.centre, starts.radius)).collect()
-    }
-
-    /// Suns' starts from `cells` (`sun_cells`), each sun weighed by the
-    /// share of its light that lands in view.
-    pub fn place_sun_starts(&mut self, cells: Vec<(SunCells, f32)>) {
-        let Some(starts) = &mut self.sun_starts else { return };
-        if cells.len() != starts.suns.len() {
-            return;
-        }
-        let (cells, seen): (Vec<SunCells>, Vec<f32>) = cells.into_iter().unzip();
-        starts.weigh(&seen);
-        starts.cells = cells;
+    /// Suns' light subpaths (`SunStarts`), once `ctx`'s BVH is built.
+    pub fn place_sun_starts(ctx: &mut crate::integrator::Context) {
+        ctx.lights.sun_starts = SunStarts::new(ctx, ctx.lights.distribution.total());
     }
 
     /// A start from a sun (`SunStarts`), `u_pick` picking the sun; with
@@ -1039,11 +1020,11 @@ impl Lights {
     fn sun_start(&self, scene: &Scene, u_pick: f32, u_point: Vec2, u_dir: Vec2, aim: Option<&Aim>) -> Option<PointEmission> {
         let starts = self.sun_starts.as_ref()?;
         let mut rest = u_pick;
-        let k = starts.suns.iter().position(|&(_, p)| {
-            rest -= p;
+        let sun = starts.suns.iter().find(|s| {
+            rest -= s.probability;
             rest < 0.0
-        }).or(starts.suns.len().checked_sub(1))?;
-        let (index, within) = starts.suns[k];
+        }).or(starts.suns.last())?;
+        let (index, within) = (sun.index, sun.probability);
         let light = scene.punctual.get(index)?;
         let travel = light.direction;
         let (dir, pdf_dir, radiance) = if light.size > 0.0 {
@@ -1053,26 +1034,22 @@ impl Lights {
         } else {
             (travel, 1.0, light.intensity)
         };
-        let mut area = std::f32::consts::PI * starts.radius * starts.radius;
-        let origin = match aim {
-            // Behind the scene's sphere, whichever point of it the aim's is.
+        let (origin, area) = match aim {
+            // Behind the scene's sphere, whichever point of it the aim's is;
+            // its α, not the start's, as if from the scene's disk.
             Some(aim) => {
                 let p = aim.across(travel, u_point)?;
-                p - travel * (starts.radius * 1.01 + (p - starts.centre).length())
+                (p - travel * (starts.radius * 1.01 + (p - starts.centre).length()), std::f32::consts::PI * starts.radius * starts.radius)
             }
-            None => match starts.cells.get(k) {
-                Some(cells) => {
-                    let (origin, density) = cells.sample(u_point);
-                    area = 1.0 / density;
-                    origin
-                }
-                None => crate::sampling::disk_point(starts.centre - travel * (starts.radius * 1.01), travel, starts.radius, u_point),
-            },
+            None => {
+                let (origin, density) = sun.cells.sample(u_point);
+                (origin, 1.0 / density)
+            }
         };
         let probability = starts.share * within;
         // α = L·cos·A / (p·pdf_dir), the light through the area A a start
-        // stands for (E·A/p for a sun without a size): the disk's πR², or
-        // one over the cells' density at the start's point.
+        // stands for (E·A/p for a sun without a size): one over the cells'
+        // density at the start's point.
         let alpha = radiance * (dir.dot(travel) * area / (probability * pdf_dir));
         (alpha.is_finite() && alpha.max_element() > 0.0 && origin.is_finite()).then_some(PointEmission { index: index as u32, origin, dir, alpha, probability, pdf_dir })
     }
