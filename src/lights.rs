@@ -471,12 +471,13 @@ pub enum Start {
     Point(PointEmission),
 }
 
-/// Where light subpaths start from suns: on a square across a sun's
-/// light about the scene's bounding sphere (its radius R, just outside
-/// the sphere), drawn from cells by where the sun's light through each
-/// lands (sun_cells.rs), leaving along the sun's light (or uniformly
-/// within its cone, for a sized sun). A start stands for the light that
-/// crosses the area one over the cells' density there. Each sun is picked
+/// Where light subpaths start from suns: through a square across a sun's
+/// light through the centre of the scene's bounding sphere (of radius R),
+/// at a point drawn from cells by where the sun's light through each
+/// lands (sun_cells.rs), along the sun's light (or uniformly within its
+/// cone, for a sized sun), from outside the sphere. A start stands for
+/// the light that crosses the area one over the cells' density there.
+/// Each sun is picked
 /// by its power E·πR² times the share of its light that lands in view,
 /// and the suns together take `share` of all starts. Placed once the
 /// scene's BVH is built (`Lights::place_sun_starts`); before, suns start
@@ -1041,9 +1042,11 @@ impl Lights {
                 let p = aim.across(travel, u_point)?;
                 (p - travel * (starts.radius * 1.01 + (p - starts.centre).length()), std::f32::consts::PI * starts.radius * starts.radius)
             }
+            // Back along its way from the point drawn on the square
+            // through the scene's centre, to outside the scene's sphere.
             None => {
-                let (origin, density) = sun.cells.sample(u_point);
-                (origin, 1.0 / density)
+                let (x, density) = sun.cells.sample(u_point);
+                (x - dir * (starts.radius * 1.01 + (x - starts.centre).length()), 1.0 / density)
             }
         };
         let probability = starts.share * within;

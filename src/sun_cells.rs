@@ -37,16 +37,73 @@ const FOCUSED: f64 = 0.4;
 /// Glass a cell's light passes through before it lands, at most.
 const PANES: u32 = 4;
 
-/// A square of half-side R, square to a sun's light, centred on the line
-/// through the scene's centre, just outside the scene's sphere; its cells
-/// picked by weight and a point uniform in the picked cell.
+/// A square of half-side R, square to a sun's light through the scene's
+/// centre; its cells picked by weight and a point uniform in the picked
+/// cell, through which a start passes (from outside the scene's sphere,
+/// `Lights::sun_start`). On a square outside the sphere, a sized sun's
+/// cone had spread the light of a cell R·θ wide where it lands: on a
+/// ground plane a kilometre wide, a 5° sun's starts meant for a ball 2 m
+/// across landed up to 30 m from it. Where the
+/// surfaces in view that focus light cover a small part of the square
+/// (a ball on a ground plane a kilometre wide, whose shadow one cell of
+/// 22 m holds), the focusing share goes to a finer grid over them.
 pub struct SunCells {
     /// The square's centre and its frame (z along the sun's light).
     centre: Vec3,
     frame: Frame,
     half: f32,
+    coarse: Grid,
+    /// The grid over the focusing surfaces, and its share of the starts.
+    fine: Option<(Grid, f32)>,
+}
+
+/// CELLS × CELLS cells over a square part of the square, in units of its
+/// half-side (the whole square is [-1, 1]²).
+struct Grid {
+    /// Its lower corner and side.
+    lo: Vec2,
+    side: f32,
     cells: Distribution1D,
 }
+
+impl Grid {
+    fn whole() -> Self {
+        Grid { lo: -Vec2::ONE, side: 2.0, cells: Distribution1D::default() }
+    }
+
+    /// Cell `i`'s point at `u` within it.
+    fn local_point(&self, i: usize, u: Vec2) -> Vec2 {
+        let cell = Vec2::new((i % CELLS) as f32, (i / CELLS) as f32);
+        self.lo + (cell + u) * (self.side / CELLS as f32)
+    }
+
+    /// The cell that holds `local`, if the grid does.
+    fn cell_at(&self, local: Vec2) -> Option<usize> {
+        let cell = (local - self.lo) * (CELLS as f32 / self.side);
+        (cell.x >= 0.0 && cell.y >= 0.0 && cell.x < CELLS as f32 && cell.y < CELLS as f32).then(|| cell.y as usize * CELLS + cell.x as usize)
+    }
+
+    /// Cell `i`'s density per unit area, the square's half-side `half`.
+    fn density(&self, i: usize, half: f32) -> f32 {
+        let side = self.side * half / CELLS as f32;
+        self.cells.probability(i) as f32 / (side * side)
+    }
+}
+
+/// Where the sun's light through one ray of each of a grid's cells lands.
+struct Landing {
+    meets: Vec<bool>,
+    seen: Vec<bool>,
+    focused: Vec<bool>,
+    /// The cells within the disk (the scene's sphere's shadow), and how
+    /// many of them are seen.
+    in_disk: u32,
+    in_view: u32,
+}
+
+/// The share of a fine grid's starts uniform over it, the rest going to
+/// its cells whose light lands in view on a surface that focuses it.
+const FINE_UNIFORM: f64 = 0.1;
 
 impl SunCells {
     /// The cells for a sun whose light travels along unit `travel`, over
@@ -54,56 +111,89 @@ impl SunCells {
     /// sun's light through the scene's disk that lands in view, the
     /// cells' light that the test below judged seen, over the disk's.
     pub fn new(ctx: &Context, travel: Vec3, centre: Vec3, radius: f32) -> (Self, f32) {
-        let square = SunCells { centre: centre - travel * (radius * 1.01), frame: Frame::from_normal(travel), half: radius, cells: Distribution1D::default() };
+        let mut square = SunCells { centre, frame: Frame::from_normal(travel), half: radius, coarse: Grid::whole(), fine: None };
         let (w, h) = (1024, (1024.0 / ctx.scene.camera.aspect_ratio.unwrap_or(1.0)).round().clamp(1.0, 65536.0) as u32);
         let lens = ctx.scene.camera.lens(w, h);
         let mut rng = Rng::new(0x7375_6e5f_6365_6c6c, 0);
-        let mut meets = vec![false; CELLS * CELLS];
-        let mut seen = vec![false; CELLS * CELLS];
-        let mut focused = vec![false; CELLS * CELLS];
-        let (mut in_disk, mut in_view_count) = (0u32, 0u32);
+        let landing = square.landing(ctx, &lens, &square.coarse, &mut rng);
+        let fine = square.focusing_bounds(ctx, &lens).and_then(|(lo, side)| {
+            let mut grid = Grid { lo, side, cells: Distribution1D::default() };
+            let focused = dilate(&square.landing(ctx, &lens, &grid, &mut rng).focused);
+            let n = focused.iter().filter(|&&b| b).count();
+            (n > 0).then(|| {
+                grid.cells = Distribution1D::new(focused.iter().map(|&f| FINE_UNIFORM / (CELLS * CELLS) as f64 + if f { (1.0 - FINE_UNIFORM) / n as f64 } else { 0.0 }));
+                grid
+            })
+        });
+        let (meets, seen) = (dilate(&landing.meets), dilate(&landing.seen));
+        // The focusing share goes to the fine grid where there is one.
+        let focused = if fine.is_some() { vec![false; CELLS * CELLS] } else { dilate(&landing.focused) };
+        let count = |m: &[bool]| m.iter().filter(|&&b| b).count().max(1) as f64;
+        let (n_meets, n_seen, n_focused) = (count(&meets), count(&seen), count(&focused));
+        let (in_view, focus) = if focused.contains(&true) || fine.is_some() { (IN_VIEW, FOCUSED) } else { (IN_VIEW + FOCUSED, 0.0) };
+        let share = |set: bool, of: f64, n: f64| if set { of / n } else { 0.0 };
+        let weights = (0..CELLS * CELLS).map(|i| UNIFORM / (CELLS * CELLS) as f64 + share(meets[i], MEETS, n_meets) + share(seen[i], in_view, n_seen) + share(focused[i], focus, n_focused));
+        square.coarse.cells = Distribution1D::new(weights);
+        square.fine = fine.map(|g| (g, FOCUSED as f32));
+        let landed = if landing.in_disk > 0 { landing.in_view as f32 / landing.in_disk as f32 } else { 0.0 };
+        (square, landed)
+    }
+
+    /// One ray along the light through each of `grid`'s cells: where it
+    /// lands, through glass, which light subpaths pass (ending none
+    /// there); glass seen counts as in view.
+    fn landing(&self, ctx: &Context, lens: &crate::camera::Lens, grid: &Grid, rng: &mut Rng) -> Landing {
+        let travel = self.frame.to_world(Vec3::Z);
+        let mut out = Landing { meets: vec![false; CELLS * CELLS], seen: vec![false; CELLS * CELLS], focused: vec![false; CELLS * CELLS], in_disk: 0, in_view: 0 };
         for i in 0..CELLS * CELLS {
-            let local = square.local_point(i, rng.next_2d());
-            let mut origin = square.world_point(local);
+            let local = grid.local_point(i, rng.next_2d());
+            let mut origin = self.world_point(local) - travel * (self.half * 1.01);
             let mut lands = None;
-            // Through glass, which light subpaths pass (ending none there),
-            // to where the light lands; glass seen counts as in view.
             for _ in 0..PANES {
-                let Some(hit) = ctx.intersect(origin, travel, RayKind::Bounce, &mut rng) else { break };
-                let (si, _) = SurfaceHit::with_normal(ctx.scene, &hit, travel, &mut rng);
-                // A roughness texture is taken as smooth somewhere.
+                let Some(hit) = ctx.intersect(origin, travel, RayKind::Bounce, rng) else { break };
+                let (si, _) = SurfaceHit::with_normal(ctx.scene, &hit, travel, rng);
                 let m = ctx.scene.material_of(hit.triangle);
-                focused[i] |= m.transmission > 0.0 || m.focuses_light(|_| 0.0);
-                let view = in_sight(ctx, &lens, &si, &mut rng);
+                out.focused[i] |= focuses(m);
+                let view = in_sight(ctx, lens, &si, rng);
                 lands = Some(view);
                 if view || m.transmission <= 0.0 {
                     break;
                 }
                 origin = si.spawn_origin(travel);
             }
-            meets[i] = lands.is_some();
-            seen[i] = lands == Some(true) || (lands.is_some() && !lens.joinable());
-            focused[i] &= seen[i];
+            out.meets[i] = lands.is_some();
+            out.seen[i] = lands == Some(true) || (lands.is_some() && !lens.joinable());
+            out.focused[i] &= out.seen[i];
             if local.length_squared() <= 1.0 {
-                in_disk += 1;
-                in_view_count += seen[i] as u32;
+                out.in_disk += 1;
+                out.in_view += out.seen[i] as u32;
             }
         }
-        let (meets, seen, focused) = (dilate(&meets), dilate(&seen), dilate(&focused));
-        let count = |m: &[bool]| m.iter().filter(|&&b| b).count().max(1) as f64;
-        let (n_meets, n_seen, n_focused) = (count(&meets), count(&seen), count(&focused));
-        let (in_view, focus) = if focused.contains(&true) { (IN_VIEW, FOCUSED) } else { (IN_VIEW + FOCUSED, 0.0) };
-        let share = |set: bool, of: f64, n: f64| if set { of / n } else { 0.0 };
-        let weights = (0..CELLS * CELLS).map(|i| UNIFORM / (CELLS * CELLS) as f64 + share(meets[i], MEETS, n_meets) + share(seen[i], in_view, n_seen) + share(focused[i], focus, n_focused));
-        let landed = if in_disk > 0 { in_view_count as f32 / in_disk as f32 } else { 0.0 };
-        (SunCells { cells: Distribution1D::new(weights), ..square }, landed)
+        out
     }
 
-    /// Cell `i`'s point at `u` within it, in units of the half-side
-    /// (the square is [-1, 1]²).
-    fn local_point(&self, i: usize, u: Vec2) -> Vec2 {
-        let cell = Vec2::new((i % CELLS) as f32, (i / CELLS) as f32);
-        (cell + u) * (2.0 / CELLS as f32) - Vec2::ONE
+    /// The square (lower corner and side, in units of the half-side) that
+    /// holds the shadows of the surfaces that focus light with a corner in
+    /// view, padded by a sixteenth; None where there are none or that
+    /// square is more than an eighth of the whole's side, a few coarse
+    /// cells: the coarse grid then finds them.
+    fn focusing_bounds(&self, ctx: &Context, lens: &crate::camera::Lens) -> Option<(Vec2, f32)> {
+        let scene = ctx.scene;
+        let focusing: Vec<bool> = scene.materials.iter().map(focuses).collect();
+        let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
+        for t in scene.triangles.iter().filter(|t| focusing.get(t.material as usize) == Some(&true)) {
+            let corners = t.p();
+            if lens.joinable() && !corners.iter().any(|&p| lens.project(p, Vec2::splat(0.5), 0.0).is_some_and(|s| s.pixel.is_some())) {
+                continue;
+            }
+            for p in corners {
+                let local = self.frame.to_local(p - self.centre);
+                let local = Vec2::new(local.x, local.y) / self.half;
+                (lo, hi) = (lo.min(local), hi.max(local));
+            }
+        }
+        let side = (hi - lo).max_element() * (1.0 + 1.0 / 16.0);
+        (side.is_finite() && side > 0.0 && side <= 2.0 / 8.0).then(|| ((lo + hi - Vec2::splat(side)) * 0.5, side))
     }
 
     fn world_point(&self, local: Vec2) -> Vec3 {
@@ -112,8 +202,18 @@ impl SunCells {
 
     /// A start's point, and its density per unit area of the square.
     pub fn sample(&self, u: Vec2) -> (Vec3, f32) {
-        let (i, rest) = self.cells.sample_remapped(u.x);
-        (self.world_point(self.local_point(i, Vec2::new(rest, u.y))), self.cell_density(i))
+        let (grid, u_cell) = match &self.fine {
+            Some((fine, share)) if u.x < *share => (fine, u.x / share),
+            Some((_, share)) => (&self.coarse, ((u.x - share) / (1.0 - share)).min(1.0 - f32::EPSILON)),
+            None => (&self.coarse, u.x),
+        };
+        let (i, rest) = grid.cells.sample_remapped(u_cell);
+        let local = grid.local_point(i, Vec2::new(rest, u.y));
+        let density = match &self.fine {
+            Some(_) => self.density_at(local),
+            None => self.coarse.density(i, self.half),
+        };
+        (self.world_point(local), density)
     }
 
     /// The density per unit area of the square with which `sample` draws
@@ -127,17 +227,24 @@ impl SunCells {
         }
         let x = p - dir * ((p - self.centre).dot(axis) / along);
         let local = self.frame.to_local(x - self.centre);
-        let cell = (Vec2::new(local.x, local.y) / self.half + Vec2::ONE) * (0.5 * CELLS as f32);
-        if !(cell.x >= 0.0 && cell.y >= 0.0 && cell.x < CELLS as f32 && cell.y < CELLS as f32) {
-            return 0.0;
-        }
-        self.cell_density(cell.y as usize * CELLS + cell.x as usize)
+        self.density_at(Vec2::new(local.x, local.y) / self.half)
     }
 
-    fn cell_density(&self, i: usize) -> f32 {
-        let side = 2.0 * self.half / CELLS as f32;
-        self.cells.probability(i) as f32 / (side * side)
+    /// The density at `local` (in units of the half-side).
+    fn density_at(&self, local: Vec2) -> f32 {
+        let coarse = self.coarse.cell_at(local).map_or(0.0, |i| self.coarse.density(i, self.half));
+        match &self.fine {
+            Some((fine, share)) => (1.0 - share) * coarse + share * fine.cell_at(local).map_or(0.0, |i| fine.density(i, self.half)),
+            None => coarse,
+        }
     }
+}
+
+/// Whether a surface of `m` focuses a sun's light (glass, or glossy enough
+/// for a caustic; a roughness texture taken as smooth somewhere) or lets
+/// it through.
+fn focuses(m: &crate::material::Material) -> bool {
+    m.transmission > 0.0 || m.focuses_light(|_| 0.0)
 }
 
 /// Whether the camera sees `si` from the side the light came from (si.ng
@@ -169,7 +276,7 @@ mod tests {
 
     #[test]
     fn densities_agree_with_samples() {
-        let square = SunCells { centre: Vec3::new(1.0, 2.0, 3.0), frame: Frame::from_normal(Vec3::new(0.3, -0.5, 0.8).normalize()), half: 2.5, cells: Distribution1D::new((0..CELLS * CELLS).map(|i| (i % 7) as f64)) };
+        let square = SunCells { centre: Vec3::new(1.0, 2.0, 3.0), frame: Frame::from_normal(Vec3::new(0.3, -0.5, 0.8).normalize()), half: 2.5, coarse: Grid { cells: Distribution1D::new((0..CELLS * CELLS).map(|i| (i % 7) as f64)), ..Grid::whole() }, fine: None };
         let axis = square.frame.to_world(Vec3::Z);
         let mut rng = Rng::new(3, 0);
         for _ in 0..1000 {
@@ -188,9 +295,31 @@ mod tests {
         assert_eq!(square.density(square.centre + square.frame.to_world(Vec3::X) * 2.6, axis), 0.0);
     }
 
+    /// With a fine grid over a small part of the square as well, each
+    /// sample's density is the mixture's, found again from the point; and
+    /// the mixture integrates to 1.
+    #[test]
+    fn a_fine_grid_mixes_with_the_coarse_one() {
+        // Weights by row; the sum's 2560² points fall 64 to a side of it.
+        let fine = Grid { lo: Vec2::new(0.1, -0.3), side: 0.05, cells: Distribution1D::new((0..CELLS * CELLS).map(|i| (i / CELLS < 20) as u32 as f64)) };
+        let square = SunCells { centre: Vec3::ZERO, frame: Frame::from_normal(Vec3::Z), half: 0.5, coarse: Grid { cells: Distribution1D::new((0..CELLS * CELLS).map(|i| 1.0 + (i % 5) as f64)), ..Grid::whole() }, fine: Some((fine, 0.4)) };
+        let mut rng = Rng::new(4, 0);
+        let mut in_fine = 0;
+        for _ in 0..4000 {
+            let (x, pdf) = square.sample(rng.next_2d());
+            let again = square.density(x - Vec3::Z, Vec3::Z);
+            assert!((again - pdf).abs() <= 1e-3 * pdf, "{again} {pdf}");
+            in_fine += (x.x > 0.05 && x.x < 0.075 && x.y > -0.15 && x.y < -0.15 + 0.025 * 20.0 / 64.0) as u32;
+        }
+        assert!((in_fine as f32 / 4000.0 - 0.4).abs() < 0.04, "{in_fine}");
+        let n = 2560;
+        let sum: f64 = (0..n * n).map(|k| square.density(Vec3::new(((k % n) as f32 + 0.5) / n as f32 - 0.5, ((k / n) as f32 + 0.5) / n as f32 - 0.5, 1.0), Vec3::Z) as f64).sum::<f64>() / (n * n) as f64;
+        assert!((sum - 1.0).abs() < 1e-4, "{sum}");
+    }
+
     #[test]
     fn densities_integrate_to_one_over_the_square() {
-        let square = SunCells { centre: Vec3::ZERO, frame: Frame::from_normal(Vec3::Z), half: 0.5, cells: Distribution1D::new((0..CELLS * CELLS).map(|i| 1.0 + (i % 5) as f64)) };
+        let square = SunCells { centre: Vec3::ZERO, frame: Frame::from_normal(Vec3::Z), half: 0.5, coarse: Grid { cells: Distribution1D::new((0..CELLS * CELLS).map(|i| 1.0 + (i % 5) as f64)), ..Grid::whole() }, fine: None };
         let n = 512;
         let sum: f64 = (0..n * n).map(|k| square.density(Vec3::new(((k % n) as f32 + 0.5) / n as f32 - 0.5, ((k / n) as f32 + 0.5) / n as f32 - 0.5, 1.0), Vec3::Z) as f64).sum::<f64>() / (n * n) as f64;
         assert!((sum - 1.0).abs() < 1e-4, "{sum}");

@@ -216,8 +216,18 @@ def window_room_sun(scene):
     bpy.context.view_layer.update()
 
 
+def gold_sphere_sun_1km(scene):
+    """The gold sphere under the sun (`gold_sphere_sun`) on a ground 1 km
+    wide instead of its 20 m floor, as outdoor scenes have: the scene's
+    bounding sphere is 50 times as wide, and the sphere 2 m across."""
+    gold_sphere_sun(scene)
+    floor = next(o for o in scene.objects if o.type == "MESH" and o.active_material and o.active_material.name.startswith("Floor"))
+    floor.scale = (50.0, 50.0, 1.0)
+    bpy.context.view_layer.update()
+
+
 # Scenes that only `--scenes` runs: Mitsuba's conversion has no sun.
-MORE_SCENES = {"glass-sphere-sun": glass_sphere_sun, "gold-sphere-sun": gold_sphere_sun, "window-room-sun": window_room_sun}
+MORE_SCENES = {"glass-sphere-sun": glass_sphere_sun, "gold-sphere-sun": gold_sphere_sun, "gold-sphere-sun-1km": gold_sphere_sun_1km, "window-room-sun": window_room_sun}
 
 
 def setup(build, size):
