@@ -518,18 +518,26 @@ fn light_paths_through_glass_keep_the_image_and_lower_the_caustics_noise() {
     }
 }
 
-/// The same glass sphere's caustic at 1/1000 and 1000 times the size:
-/// the subpaths' reference density through the glass (`DeltaStart`, the
-/// way's length squared) and the camera side's weights must neither
-/// overflow nor lose the image, which is the same in expectation (each
-/// channel's mean over the image and over its brightest 4%, within 5
-/// standard errors of the render at size 1).
+/// The same glass sphere's caustic at 1/1000 and 1000 times the size,
+/// under the lamp and under a sun: the subpaths' reference density
+/// through the glass (`DeltaStart`, the way's length squared), the sun's
+/// starts' density per unit area (sun_cells.rs, 10⁻⁶ to 10⁶ per m²) and
+/// the camera side's weights must neither overflow nor lose the image,
+/// which is the same in expectation (each channel's mean over the image
+/// and over its brightest 4%, within 5 standard errors of the render at
+/// size 1).
 #[test]
 fn light_paths_through_glass_keep_the_image_at_every_scale() {
+    for sun in [false, true] {
+        glass_caustic_at_every_scale(sun.then_some(glint::punctual::PunctualKind::Sun));
+    }
+}
+
+fn glass_caustic_at_every_scale(bulb: Option<glint::punctual::PunctualKind>) {
     use glint::render::LightPaths;
     let s = RenderSettings { mis: true, light_paths: LightPaths::On, ..settings(32, 32, 128, 8, 0) };
     let renders = |scale: f32, seeds: std::ops::Range<u64>| -> Vec<Vec<Vec3>> {
-        let scene = ball_over_floor(None, false, 0.1, scale);
+        let scene = ball_over_floor(bulb, false, 0.1, scale);
         seeds
             .map(|seed| {
                 let (img, stats) = render(&scene, &RenderSettings { seed, ..s.clone() }, 2);
@@ -550,8 +558,8 @@ fn light_paths_through_glass_keep_the_image_at_every_scale() {
         for (part, pixels) in [("image", &all[..]), ("brightest", bright)] {
             let means = |imgs: &[Vec<Vec3>]| -> (f64, f64) { mean_and_standard_error(&imgs.iter().map(|img| pixels.iter().map(|&i| lum(&img[i])).sum::<f32>() / pixels.len() as f32).collect::<Vec<_>>()) };
             let ((a, sa), (b, sb)) = (means(&scaled), means(&reference));
-            println!("scale {scale}, {part}: {a:.5} ± {sa:.5} against {b:.5} ± {sb:.5}");
-            assert!((a - b).abs() < 5.0 * (sa * sa + sb * sb).sqrt(), "scale {scale}, {part}: {a} ± {sa} against {b} ± {sb} at size 1");
+            println!("{bulb:?}, scale {scale}, {part}: {a:.5} ± {sa:.5} against {b:.5} ± {sb:.5}");
+            assert!((a - b).abs() < 5.0 * (sa * sa + sb * sb).sqrt(), "{bulb:?}, scale {scale}, {part}: {a} ± {sa} against {b} ± {sb} at size 1");
         }
     }
 }
