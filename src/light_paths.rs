@@ -928,11 +928,10 @@ mod tests {
         }
         // A ball of rough gold (0.2) a metre across in view, 0.5% of the
         // scene's disk: the finer grid over the surfaces that focus light
-        // takes 60% of the starts, and 54% of all starts reach the ball
-        // (36% with its share 40%; 21% with the coarse cells alone, 40% of
-        // the starts on those its light lands in and their neighbours; 1.5%
-        // with that share left to the cells in view). On a floor a
-        // kilometre wide, whose coarse cells are 22 m, 54% as well (none
+        // takes 40% of the starts, and 36% of all starts reach the ball
+        // (21% with that share on the coarse cells its light lands in and
+        // their neighbours, 1.5% with it left to the cells in view). On a
+        // floor a kilometre wide, whose coarse cells are 22 m, 35% (none
         // with the coarse cells alone, whose one ray each missed the ball).
         for floor_scale in [1.0, 100.0] {
             let mut ball = floor_and_sphere(Vec3::new(0.0, 0.5, -2.0), 0.5, 8, true);
@@ -952,7 +951,7 @@ mod tests {
                 })
                 .count();
             println!("floor × {floor_scale}: {on_ball} of 2000 starts reach the ball");
-            assert!(on_ball > 800, "floor × {floor_scale}: {on_ball} of 2000");
+            assert!(on_ball > 500, "floor × {floor_scale}: {on_ball} of 2000");
         }
     }
 

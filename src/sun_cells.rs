@@ -108,16 +108,17 @@ struct Landing {
 /// (0.3: +3% and +7% relMSE on the gold sphere under a 5° sun on its 20
 /// m and 1 km floors, 4 spp, 8 seeds).
 const FINE_UNIFORM: f64 = 0.1;
-/// The fine grid's share of all starts, where there is one; the coarse
-/// cells' shares above make up the rest in their proportions. Against
-/// FOCUSED's 0.4 (relMSE, paired seeds): the gold sphere under a 5° sun
-/// on its 20 m and 1 km floors −13.5% ± 4 and −10% ± 4 at 4 spp (8
-/// seeds; 0.8: −2% more, 0.25: +18% and +28%), the glass sphere with the
-/// sun beside its lamp −0.3% ± 0.1 (16 seeds), and the window room with
-/// the sun on a gold ball 0.4 m across +2.8% ± 0.3 at 16 spp (6 seeds),
-/// whose light the floor sends on is most of the image, for 5% less time
-/// a sample there (fewer subpaths come in to bounce in the closed room).
-const FINE_SHARE: f32 = 0.6;
+/// The fine grid's share of all starts, where there is one, the coarse
+/// cells' focusing share; their other shares make up the rest in their
+/// proportions. 0.6 instead (relMSE, paired seeds): the gold sphere under
+/// a 5° sun on its 20 m and 1 km floors −13.5% ± 4 and −10% ± 4 at 4 spp
+/// (8 seeds; 0.8: −2% more, 0.25: +18% and +28%), the glass sphere with
+/// the sun beside its lamp −0.3% ± 0.1 (16 seeds), but the window room
+/// with the sun on a gold ball 0.4 m across +2.8% ± 0.3 at 16 spp (6
+/// seeds) and 8% more time a sample, where the light the floor sends on
+/// is most of the image: open ground and a closed room want different
+/// shares, and two scenes do not set a rule.
+const FINE_SHARE: f32 = FOCUSED as f32;
 
 impl SunCells {
     /// The cells for a sun whose light travels along unit `travel`, over
