@@ -1035,20 +1035,20 @@ impl Lights {
         } else {
             (travel, 1.0, light.intensity)
         };
-        let (origin, area) = match aim {
-            // Behind the scene's sphere, whichever point of it the aim's is;
-            // its α, not the start's, as if from the scene's disk.
-            Some(aim) => {
-                let p = aim.across(travel, u_point)?;
-                (p - travel * (starts.radius * 1.01 + (p - starts.centre).length()), std::f32::consts::PI * starts.radius * starts.radius)
-            }
-            // Back along its way from the point drawn on the square
-            // through the scene's centre, to outside the scene's sphere.
+        // A point the start passes, the way back from it to outside the
+        // scene's sphere, and the area the start stands for.
+        let (through, back, area) = match aim {
+            // The aim's point, behind it along the sun's axis; its α, not
+            // the start's, as if from the scene's disk.
+            Some(aim) => (aim.across(travel, u_point)?, travel, std::f32::consts::PI * starts.radius * starts.radius),
+            // The point drawn on the square through the scene's centre,
+            // behind it along the start's own way.
             None => {
                 let (x, density) = sun.cells.sample(u_point);
-                (x - dir * (starts.radius * 1.01 + (x - starts.centre).length()), 1.0 / density)
+                (x, dir, 1.0 / density)
             }
         };
+        let origin = through - back * (starts.radius * 1.01 + (through - starts.centre).length());
         let probability = starts.share * within;
         // α = L·cos·A / (p·pdf_dir), the light through the area A a start
         // stands for (E·A/p for a sun without a size): one over the cells'
