@@ -77,6 +77,12 @@ pub struct Lights {
     suns: Vec<(usize, f32)>,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
+    /// Whether a point or a spot is among them. Only those can be met
+    /// before a surface; a sun only by a ray that leaves the scene, so
+    /// under a sun alone the rays that hit a surface skip the test (2.9%
+    /// of the instructions of a 1-spp render of the gold sphere under a
+    /// sun).
+    pub sized_local: bool,
     /// Light subpaths from suns (`SunStarts`), where some sun shines.
     sun_starts: Option<SunStarts>,
     /// The local lights in a light tree where there are two or more;
@@ -611,7 +617,8 @@ impl Lights {
         let weights = |world: f32| DistantWeights { world, total: world + sunlight };
         let tree = LocalTree::new(scene, &triangles, &records, &softboxes, &powers);
         let distribution = Distribution1D::new(powers);
-        let sized = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
+        let sized: Vec<usize> = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
+        let sized_local = sized.iter().any(|&i| scene.punctual[i].kind != crate::punctual::PunctualKind::Sun);
         Lights {
             // π/P_total once: a division in f64 had been a tenth of a light sample.
             area_pdf_per_luminance: if distribution.total() > 0.0 { (std::f64::consts::PI / distribution.total()) as f32 } else { 0.0 },
@@ -624,6 +631,7 @@ impl Lights {
             local,
             suns,
             sized,
+            sized_local,
             sun_starts: None,
             tree,
             portals: Portals::new(scene.portals.clone()),
