@@ -75,6 +75,11 @@ pub struct Lights {
     /// Scene punctual index and luminance irradiance (W·m⁻²) of each sun;
     /// they have no weight in `distribution`.
     suns: Vec<(usize, f32)>,
+    /// Each punctual light's `SunDisk`, by scene index: None but for a
+    /// sized sun. Its light samples read it: formed at each, it was 1.6%
+    /// of the instructions of a 1-spp render of the gold sphere under a
+    /// sun.
+    pub sun_disks: Vec<Option<crate::punctual::SunDisk>>,
     /// The scene's punctual lights that have a size, which rays can hit.
     pub sized: Vec<usize>,
     /// Whether a point or a spot is among them. Only those can be met
@@ -630,6 +635,7 @@ impl Lights {
             alone: weights(world_irradiance),
             local,
             suns,
+            sun_disks: scene.punctual.iter().map(|l| l.sun_disk()).collect(),
             sized,
             sized_local,
             sun_starts: None,

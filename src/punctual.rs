@@ -29,7 +29,7 @@
 //! shadow. With r = 0 only light sampling
 //! reaches a light, and its samples take the full weight.
 
-use crate::sampling::{cone_pdf, cone_sample_within, disk_point, one_minus_cos};
+use crate::sampling::{cone_pdf, cone_sample_in, cone_sample_within, disk_point, one_minus_cos, Frame};
 use glam::Vec2;
 use crate::Vec3;
 use std::f32::consts::PI;
@@ -60,6 +60,18 @@ pub struct PunctualLight {
     pub camera_sees: bool,
     /// Blender's Cast Shadow off: its light samples trace no shadow ray.
     pub shadowless: bool,
+}
+
+/// What every light sample of a sized sun shares, formed once a render
+/// (`Lights`) instead of at each sample: two sines and a frame.
+#[derive(Clone, Copy, Debug)]
+pub struct SunDisk {
+    /// About the direction toward the sun.
+    frame: Frame,
+    /// 1 − cos of the sun's angular radius.
+    one_minus_cos: f32,
+    /// L/pdf_ω over the irradiance E: E/(π sin²θ) · 2π(1 − cosθ) / E.
+    scale: f32,
 }
 
 /// Light arriving at a point from a punctual light.
@@ -113,13 +125,10 @@ impl PunctualLight {
     /// estimate: L·cosθ'/(r²·pdf_A), or L/pdf_ω for a cone.
     pub fn incident(&self, p: Vec3, u: Vec2) -> Option<Incident> {
         if let PunctualKind::Sun = self.kind {
-            if self.size > 0.0 {
-                let (wi, one_minus_cos) = cone_sample(-self.direction, self.size, u);
-                // L/pdf_ω = E/(π sin²θ) · 2π(1 − cosθ).
-                let s = self.size.sin();
-                return Some(Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * (2.0 * one_minus_cos / (s * s)), pdf: cone_pdf(one_minus_cos) });
-            }
-            return Some(Incident { wi: -self.direction, distance: f32::INFINITY, irradiance: self.intensity, pdf: f32::INFINITY });
+            return Some(match self.sun_disk() {
+                Some(disk) => self.sun_incident(&disk, u),
+                None => Incident { wi: -self.direction, distance: f32::INFINITY, irradiance: self.intensity, pdf: f32::INFINITY },
+            });
         }
         let to_light = self.position - p;
         let d2 = to_light.length_squared();
@@ -153,6 +162,21 @@ impl PunctualLight {
         };
         let cone = self.cone(wi);
         (cone > 0.0 && distance > 0.0 && irradiance.is_finite()).then(|| Incident { wi, distance, irradiance: irradiance * cone, pdf })
+    }
+
+    /// A sized sun's `SunDisk`; None for other lights and a sun of size 0.
+    pub fn sun_disk(&self) -> Option<SunDisk> {
+        (matches!(self.kind, PunctualKind::Sun) && self.size > 0.0).then(|| {
+            let one_minus_cos = one_minus_cos(self.size);
+            let s = self.size.sin();
+            SunDisk { frame: Frame::from_normal(-self.direction), one_minus_cos, scale: 2.0 * one_minus_cos / (s * s) }
+        })
+    }
+
+    /// `incident` for a sized sun whose `SunDisk` is `disk`.
+    pub fn sun_incident(&self, disk: &SunDisk, u: Vec2) -> Incident {
+        let wi = cone_sample_in(&disk.frame, disk.one_minus_cos, u);
+        Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * disk.scale, pdf: cone_pdf(disk.one_minus_cos) }
     }
 
     /// The start of a light subpath (light_paths.rs): a direction

@@ -103,12 +103,18 @@ pub fn cone_pdf(one_minus_cos: f32) -> f32 {
 /// is `one_minus_cos`: its sine from 1 − cosθ, which keeps a narrow
 /// cone's.
 pub fn cone_sample_within(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
+    cone_sample_in(&Frame::from_normal(axis), one_minus_cos, u)
+}
+
+/// `cone_sample_within` about the normal of `frame`, where the frame is
+/// kept (a sun's, `SunDisk`).
+pub fn cone_sample_in(frame: &Frame, one_minus_cos: f32, u: Vec2) -> Vec3 {
     // 1 − cosθ uniform in [0, 1 − cosθmax].
     let omc = u.x * one_minus_cos;
     let sin_t = (omc * (2.0 - omc)).max(0.0).sqrt();
     let phi = 2.0 * std::f32::consts::PI * u.y;
     let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), 1.0 - omc);
-    Frame::from_normal(axis).to_world(local).normalize()
+    frame.to_world(local).normalize()
 }
 
 /// Uniform direction on the unit sphere; pdf = 1/(4π).
