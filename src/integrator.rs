@@ -1101,25 +1101,37 @@ fn sized_lights_seen(ctx: &Context, o: Vec3, d: Vec3, hit_t: Option<f32>, t_min:
             (_, None) => reach,
         };
         if let Some(seen) = light.seen(o, d, t_min, t_max) {
-            let mut radiance = seen.radiance;
-            // In an absorbing medium, over the way to the light's centre
-            // (a sun's: all the way out), within its radius of the point
-            // seen.
-            if medium != Vec3::ZERO {
-                let t = if light.kind == PunctualKind::Sun { f32::INFINITY } else { (light.position - o).length() };
-                radiance *= media::transmittance(medium, t);
-            }
-            l += radiance
-                * match through {
-                    Some(x) => x.weight(point_connection_density(ctx, x.connect, index, d, x.cos, from.p)),
-                    None => {
-                        let q = point_connection_density(ctx, from.connect, index, d, d.dot(from.ng), from.p);
-                        from.weight3(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf, q)
-                    }
-                };
+            l += sized_light_weighted(ctx, index, seen, o, d, from, through, mis, medium);
         }
     }
     l
+}
+
+/// The light of sized light `index` that a ray from `o` along `d` sees,
+/// MIS-weighted. Out of line: most rays see none, and inlined, its
+/// set-up was hoisted above the loop of `sized_lights_seen`, where every
+/// ray that leaves the scene under a sun paid for it (1.1% of the
+/// instructions of a 1-spp render of the gold sphere under a sun, 2.4%
+/// under a bulb, where every ray asks).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn sized_light_weighted(ctx: &Context, index: usize, seen: crate::punctual::Seen, o: Vec3, d: Vec3, from: &Previous, through: Option<SeenThrough>, mis: bool, medium: Vec3) -> Vec3 {
+    let light = &ctx.scene.punctual[index];
+    let mut radiance = seen.radiance;
+    // In an absorbing medium, over the way to the light's centre (a
+    // sun's: all the way out), within its radius of the point seen.
+    if medium != Vec3::ZERO {
+        let t = if light.kind == PunctualKind::Sun { f32::INFINITY } else { (light.position - o).length() };
+        radiance *= media::transmittance(medium, t);
+    }
+    radiance
+        * match through {
+            Some(x) => x.weight(point_connection_density(ctx, x.connect, index, d, x.cos, from.p)),
+            None => {
+                let q = point_connection_density(ctx, from.connect, index, d, d.dot(from.ng), from.p);
+                from.weight3(mis, || ctx.lights.punctual_probability(index, from.p, from.light_side, mis) * seen.pdf, q)
+            }
+        }
 }
 
 /// Whether the shadow ray from `si` along `w` reaches `target`, a point of
