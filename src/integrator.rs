@@ -1494,7 +1494,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
                 l += absorbed(beta, lamp.t) * lamp_seen(ctx, &lamp, d, &from, seen_through, settings.mis);
             }
         }
-        if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept && (hit.is_none() || ctx.lights.sized_local) {
+        if PUNCTUAL && !ctx.lights.sized.is_empty() && seen_kept && (hit.is_none() || ctx.lights.sized_local) && (depth > 0 || ctx.lights.sized_camera_sees) {
             l += beta * sized_lights_seen(ctx, o, d, hit.map(|h| h.t), skip, reach, &from, seen_through, settings.mis, if absorbing { media.sigma } else { Vec3::ZERO });
         }
         let Some(hit) = hit else {

@@ -88,6 +88,9 @@ pub struct Lights {
     /// of the instructions of a 1-spp render of the gold sphere under a
     /// sun).
     pub sized_local: bool,
+    /// Whether the camera sees one of them (Object › Visibility › Camera,
+    /// off for lights by default): camera rays ask only then.
+    pub sized_camera_sees: bool,
     /// Light subpaths from suns (`SunStarts`), where some sun shines.
     sun_starts: Option<SunStarts>,
     /// The local lights in a light tree where there are two or more;
@@ -624,6 +627,7 @@ impl Lights {
         let distribution = Distribution1D::new(powers);
         let sized: Vec<usize> = scene.punctual.iter().enumerate().filter(|(_, l)| l.size > 0.0).map(|(i, _)| i).collect();
         let sized_local = sized.iter().any(|&i| scene.punctual[i].kind != crate::punctual::PunctualKind::Sun);
+        let sized_camera_sees = sized.iter().any(|&i| scene.punctual[i].camera_sees);
         Lights {
             // π/P_total once: a division in f64 had been a tenth of a light sample.
             area_pdf_per_luminance: if distribution.total() > 0.0 { (std::f64::consts::PI / distribution.total()) as f32 } else { 0.0 },
@@ -638,6 +642,7 @@ impl Lights {
             sun_disks: scene.punctual.iter().map(|l| l.sun_disk()).collect(),
             sized,
             sized_local,
+            sized_camera_sees,
             sun_starts: None,
             tree,
             portals: Portals::new(scene.portals.clone()),
