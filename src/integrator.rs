@@ -1053,12 +1053,10 @@ fn point_connection_density(ctx: &Context, connect: f32, index: usize, toward_li
 fn punctual_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, wo: Vec3, mis: bool, chain: &Chain<B>, index: usize, probability: f32, u: Vec2, sides: Option<&Sides>, rng: &mut Rng, rays: &mut RayCounts) -> Vec3 {
     let light = &ctx.scene.punctual[index];
     let inc = match &ctx.lights.sun_disks[index] {
-        Some(disk) => light.sun_incident(disk, u),
-        None => match light.incident(si.p, u) {
-            Some(inc) => inc,
-            None => return Vec3::ZERO,
-        },
+        Some(disk) => Some(light.sun_incident(disk, u)),
+        None => light.incident(si.p, u),
     };
+    let Some(inc) = inc else { return Vec3::ZERO };
     let Some(wi_local) = toward_light(si, bsdf, inc.wi) else { return Vec3::ZERO };
     let (f, bsdf_pdf) = shade(bsdf, wo, wi_local, mis);
     if f == Vec3::ZERO {

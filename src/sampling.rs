@@ -191,7 +191,7 @@ impl Distribution1D {
     /// Index whose interval contains u·total; never an item of zero weight.
     pub fn sample(&self, u: f32) -> usize {
         let target = u as f64 * self.total;
-        let i = if self.guide.len() < 2 {
+        let i = if self.guide.is_empty() {
             self.cdf.partition_point(|&c| c <= target)
         } else {
             // u·M is exact (M a power of two); u ≥ 1 falls in the last part.
