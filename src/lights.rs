@@ -1047,12 +1047,10 @@ impl Lights {
         let (index, within) = (sun.index, sun.probability);
         let light = scene.punctual.get(index)?;
         let travel = light.direction;
-        let (dir, pdf_dir, radiance) = if light.size > 0.0 {
+        let (dir, pdf_dir, radiance) = match self.sun_disks.get(index).copied().flatten() {
             // Within the cone of the sun's disk, of radiance E/(π sin²θ).
-            let one_minus_cos = crate::sampling::one_minus_cos(light.size);
-            (crate::sampling::cone_sample_within(travel, one_minus_cos, u_dir), crate::sampling::cone_pdf(one_minus_cos), light.sun_radiance())
-        } else {
-            (travel, 1.0, light.intensity)
+            Some(disk) => (disk.leaving(u_dir), disk.pdf(), disk.radiance(light.intensity)),
+            None => (travel, 1.0, light.intensity),
         };
         // A point the start passes, the way back from it to outside the
         // scene's sphere, and the area the start stands for.

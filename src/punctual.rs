@@ -29,7 +29,7 @@
 //! shadow. With r = 0 only light sampling
 //! reaches a light, and its samples take the full weight.
 
-use crate::sampling::{cone_pdf, cone_sample_in, cone_sample_within, disk_point, one_minus_cos, Frame};
+use crate::sampling::{cone_pdf, cone_sample_in, cone_sample_opposite, cone_sample_within, disk_point, one_minus_cos, Frame};
 use glam::Vec2;
 use crate::Vec3;
 use std::f32::consts::PI;
@@ -62,8 +62,9 @@ pub struct PunctualLight {
     pub shadowless: bool,
 }
 
-/// What every light sample of a sized sun shares, formed once a render
-/// (`Lights`) instead of at each sample: two sines and a frame.
+/// What every light sample of a sized sun, and every light subpath it
+/// starts, shares, formed once a render (`Lights`) instead of at each:
+/// two sines and a frame.
 #[derive(Clone, Copy, Debug)]
 pub struct SunDisk {
     /// About the direction toward the sun.
@@ -72,6 +73,27 @@ pub struct SunDisk {
     one_minus_cos: f32,
     /// L/pdf_ω over the irradiance E: E/(π sin²θ) · 2π(1 − cosθ) / E.
     scale: f32,
+    /// π sin²θ, which the irradiance is divided by for the disk's radiance.
+    pi_sin2: f32,
+}
+
+impl SunDisk {
+    /// A direction the sun's light travels along, uniform within the cone
+    /// of its disk: `cone_sample_within(travel, …)`'s, to the bit.
+    pub fn leaving(&self, u: Vec2) -> Vec3 {
+        cone_sample_opposite(&self.frame, self.one_minus_cos, u)
+    }
+
+    /// The solid-angle density of `leaving` and of a light sample.
+    pub fn pdf(&self) -> f32 {
+        cone_pdf(self.one_minus_cos)
+    }
+
+    /// The disk's radiance E/(π sin²θ), E the sun's irradiance
+    /// (`PunctualLight::sun_radiance`).
+    pub fn radiance(&self, irradiance: Vec3) -> Vec3 {
+        irradiance / self.pi_sin2
+    }
 }
 
 /// Light arriving at a point from a punctual light.
@@ -169,7 +191,7 @@ impl PunctualLight {
         (matches!(self.kind, PunctualKind::Sun) && self.size > 0.0).then(|| {
             let one_minus_cos = one_minus_cos(self.size);
             let s = self.size.sin();
-            SunDisk { frame: Frame::from_normal(-self.direction), one_minus_cos, scale: 2.0 * one_minus_cos / (s * s) }
+            SunDisk { frame: Frame::from_normal(-self.direction), one_minus_cos, scale: 2.0 * one_minus_cos / (s * s), pi_sin2: PI * s * s }
         })
     }
 

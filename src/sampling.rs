@@ -109,12 +109,27 @@ pub fn cone_sample_within(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
 /// `cone_sample_within` about the normal of `frame`, where the frame is
 /// kept (a sun's, `SunDisk`).
 pub fn cone_sample_in(frame: &Frame, one_minus_cos: f32, u: Vec2) -> Vec3 {
+    frame.to_world(cone_local(one_minus_cos, u)).normalize()
+}
+
+/// `cone_sample_in` about the opposite of `frame`'s normal. The frame
+/// `from_normal` makes about −n is the one about n with its second and
+/// third axes negated, to the bit (each of its numbers is formed from
+/// −n's by the same operations, signs aside), so the direction is the one
+/// `cone_sample_within(−n, …)` draws.
+pub fn cone_sample_opposite(frame: &Frame, one_minus_cos: f32, u: Vec2) -> Vec3 {
+    frame.to_world(cone_local(one_minus_cos, u) * Vec3::new(1.0, -1.0, -1.0)).normalize()
+}
+
+/// A direction uniformly in the cone about +z whose 1 − cosθmax is
+/// `one_minus_cos`.
+#[inline]
+fn cone_local(one_minus_cos: f32, u: Vec2) -> Vec3 {
     // 1 − cosθ uniform in [0, 1 − cosθmax].
     let omc = u.x * one_minus_cos;
     let sin_t = (omc * (2.0 - omc)).max(0.0).sqrt();
     let phi = 2.0 * std::f32::consts::PI * u.y;
-    let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), 1.0 - omc);
-    frame.to_world(local).normalize()
+    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), 1.0 - omc)
 }
 
 /// Uniform direction on the unit sphere; pdf = 1/(4π).
@@ -228,6 +243,24 @@ impl Distribution1D {
 mod tests {
     use super::*;
     use crate::rng::Rng;
+
+    #[test]
+    fn the_opposite_cone_is_the_cone_about_the_negated_axis_to_the_bit() {
+        // A sun's subpaths leave along the cone its light samples' frame
+        // faces away from (`SunDisk::leaving`); its images rest on this.
+        let mut rng = Rng::new(7, 0);
+        let mut axes = vec![Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::Y, Vec3::new(1e-30, 0.0, 1.0).normalize()];
+        axes.push(Vec3::new(0.6, 0.8, 0.0));
+        axes.push(Vec3::new(0.6, -0.8, -0.0));
+        axes.extend((0..2000).map(|_| uniform_sphere(rng.next_2d())));
+        for (k, n) in axes.into_iter().enumerate() {
+            for omc in [1e-7, one_minus_cos(0.0465), 0.3, 2.0] {
+                let u = rng.next_2d();
+                let (a, b) = (cone_sample_opposite(&Frame::from_normal(n), omc, u), cone_sample_within(-n, omc, u));
+                assert_eq!(a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits), "axis {k} {n:?}, 1 − cos {omc}");
+            }
+        }
+    }
 
     #[test]
     fn frame_is_orthonormal_for_awkward_normals() {
