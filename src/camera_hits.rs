@@ -24,12 +24,15 @@ use crate::camera::Lens;
 use crate::material::Material;
 use crate::scene::Triangle;
 use crate::Vec3;
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 use std::ops::Range;
 
 /// Ray-triangle tests per pixel and sample, as the binned rectangles add
 /// up, above which the camera's rays go through the BVH instead.
 const MAX_TESTS_PER_PIXEL: f64 = 8.0;
+
+/// Rays `CameraHits::nearest` tests against a triangle at once.
+const LANES: usize = 4;
 
 /// Pixels by which a triangle's image is widened on every side against
 /// rounding: a corner's projection and a ray's direction are each a few
@@ -102,7 +105,9 @@ pub struct TileRays {
 
 impl TileRays {
     pub fn new(tile: u32) -> Self {
-        let n = (tile * tile) as usize;
+        // Three lanes past the tile's last ray: `nearest` reads a row's
+        // span four lanes at a time, its last four reaching past the span.
+        let n = (tile * tile) as usize + LANES - 1;
         TileRays { x: vec![0.0; n], y: vec![0.0; n], z: vec![0.0; n], t: vec![0.0; n], slot: vec![0; n], facing: Vec::new() }
     }
 
@@ -244,20 +249,35 @@ impl<'a> CameraHits<'a> {
         rays.t[..n].fill(f32::INFINITY);
         rays.slot[..n].fill(u32::MAX);
         for f in &rays.facing {
-            let [e0, e1, e2] = f.edges;
+            let [e0, e1, e2] = f.edges.map(|e| e.to_array().map(Vec4::splat));
+            let volume = Vec4::splat(f.volume);
             let [xa, xb, ya, yb] = f.span.map(|v| v as usize);
             for y in ya..yb {
-                let r = y * tw as usize + xa..y * tw as usize + xb;
-                let lanes = rays.x[r.clone()].iter().zip(&rays.y[r.clone()]).zip(&rays.z[r.clone()]).zip(&mut rays.t[r.clone()]).zip(&mut rays.slot[r]);
-                for ((((&dx, &dy), &dz), t), slot) in lanes {
-                    let a = dx * e0.x + dy * e0.y + dz * e0.z;
-                    let b = dx * e1.x + dy * e1.y + dz * e1.z;
-                    let c = dx * e2.x + dy * e2.y + dz * e2.z;
-                    let along = f.volume / (a + b + c);
-                    // Non-short-circuit `&`: the lanes stay branch-free.
-                    let take = (a >= 0.0) & (b >= 0.0) & (c >= 0.0) & (along < *t);
-                    *t = if take { along } else { *t };
-                    *slot = if take { f.slot } else { *slot };
+                // Four rays at a time, in SIMD lanes where the CPU has
+                // them: the same operations in the same order as one at a
+                // time (the hits are the same to the bit), in a quarter of
+                // the instructions. The last four may reach past the span:
+                // those lanes take nothing.
+                let row = y * tw as usize;
+                for x in (xa..xb).step_by(LANES) {
+                    let i = row + x;
+                    let (dx, dy, dz) = (Vec4::from_slice(&rays.x[i..]), Vec4::from_slice(&rays.y[i..]), Vec4::from_slice(&rays.z[i..]));
+                    let t = Vec4::from_slice(&rays.t[i..]);
+                    let a = dx * e0[0] + dy * e0[1] + dz * e0[2];
+                    let b = dx * e1[0] + dy * e1[1] + dz * e1[2];
+                    let c = dx * e2[0] + dy * e2[1] + dz * e2[2];
+                    let along = volume / (a + b + c);
+                    let zero = Vec4::ZERO;
+                    let take = a.cmpge(zero) & b.cmpge(zero) & c.cmpge(zero) & along.cmplt(t);
+                    let take = take.bitmask() & (u32::MAX >> (32 - (xb - x).min(LANES)));
+                    if take == 0 {
+                        continue;
+                    }
+                    for lane in 0..LANES {
+                        if take & (1 << lane) != 0 {
+                            (rays.t[i + lane], rays.slot[i + lane]) = (along[lane], f.slot);
+                        }
+                    }
                 }
             }
         }
@@ -465,12 +485,14 @@ mod tests {
     }
 
     /// Binning finds the BVH's first hit for every ray, to the bit, in a
-    /// room around the camera at 1 m, 1 mm and 1 km a unit.
+    /// room around the camera at 1 m, 1 mm and 1 km a unit. The image's
+    /// last tiles are 11 pixels wide and high: rows whose spans end off
+    /// `nearest`'s four lanes.
     #[test]
     fn first_hits_are_the_bvhs_at_any_scale() {
         for scale in [1.0, 1e-3, 1e3] {
             let (triangles, camera) = room(scale);
-            let (count, differ, settled) = agreement(&triangles, &camera, 72, 40, 4);
+            let (count, differ, settled) = agreement(&triangles, &camera, 75, 43, 4);
             assert_eq!(differ, 0, "scale {scale}: {differ} of {count} rays");
             assert!(settled * 10_000 <= count, "scale {scale}: the BVH settled {settled} of {count}");
         }
