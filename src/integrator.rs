@@ -59,6 +59,7 @@ use crate::features::{Features, Kernel};
 use crate::caustic_guide::{CausticGuide, Near};
 use std::sync::Arc;
 use crate::light_paths::{carries_light_paths, ConnectionVertex};
+use crate::light_cache::Site;
 pub use crate::light_paths::LightVertices;
 use crate::lights::{LightChoice, LightSample, Lights, Picked};
 use crate::traversal_bench::{RayKind, RayLog, TracedRay};
@@ -787,14 +788,17 @@ fn through_medium<B: Bsdf>(light: Vec3, sides: Option<&Sides>, si: &SurfaceHit, 
 
 /// The light `direct_light` samples at `si`, and the numbers for its point.
 /// With no light at all it draws no random numbers, so a kernel that
-/// leaves light sampling out sees the same random sequence.
-fn pick_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, mis: bool, rng: &mut Rng) -> Option<(Picked, Vec2)> {
+/// leaves light sampling out sees the same random sequence. `site` is
+/// where the pick reads the light grid for si's geometric normal
+/// (`Lights::pick_site`), which a BSDF that transmits does not pick for.
+fn pick_light<B: Bsdf>(ctx: &Context, si: &SurfaceHit, bsdf: &B, mis: bool, site: Option<Site>, rng: &mut Rng) -> Option<(Picked, Vec2)> {
     if ctx.lights.is_empty() {
         return None;
     }
     // One draw: the light's point stays stratified within each pick.
     let (u_pick, u) = rng.next_1d_2d();
-    Some((ctx.lights.pick(si.p, light_side(si, bsdf), u_pick, mis)?, u))
+    let n = light_side(si, bsdf);
+    Some((ctx.lights.pick_at(site.filter(|_| n == si.ng), si.p, n, u_pick, mis)?, u))
 }
 
 /// Solid-angle pdf of light sampling (with MIS: only MIS asks) reaching
@@ -1514,6 +1518,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         };
         beta = absorbed(beta, hit.t);
         let si = SurfaceHit::new(ctx.scene, &hit, d, rng);
+        let site = if AREA || PUNCTUAL { ctx.lights.pick_site(si.p, si.ng) } else { None };
         // The triangle's own material emits, whichever half of a Mix
         // Shader shades the hit (the halves' emission is the same, but
         // only the first has textures), and names its medium.
@@ -1557,7 +1562,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
             tracing,
         };
         let lit = AREA || PUNCTUAL || ctx.lights.has_world();
-        let picked = if lit { pick_light(ctx, &si, &bsdf, settings.mis, rng) } else { None };
+        let picked = if lit { pick_light(ctx, &si, &bsdf, settings.mis, site, rng) } else { None };
         // The path's next step is drawn between the light's pick and its
         // sample: the pick (a walk down the light tree) is a chain of
         // dependent operations that what follows it waits on, the BSDF

@@ -26,7 +26,7 @@
 //! its light sample, the MIS density of a BSDF ray's hit from it
 //! (`Previous::light_side`) and a light subpath's reverse density at y1.
 
-use crate::light_cache::LightCache;
+use crate::light_cache::{LightCache, Site};
 use crate::Vec3;
 
 /// Which way some emitters shine: their normals lie within `cos_o` of
@@ -398,7 +398,20 @@ impl LightTree {
     /// index, the probability of picking it, and u rescaled within the pick
     /// to a fresh number in [0, 1).
     pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
-        if let Some(picked) = self.cache.as_ref().and_then(|c| c.sample(p, n, u)) {
+        self.sample_at(None, p, n, u)
+    }
+
+    /// Where a pick at `p` and `n` reads the grid, if there is one, with
+    /// its lines asked for (`LightCache::site_fetched`).
+    #[inline]
+    pub fn site_fetched(&self, p: Vec3, n: Vec3) -> Option<Site> {
+        self.cache.as_ref().map(|c| c.site_fetched(p, n))
+    }
+
+    /// `sample`, with the grid's `site` for `p` and `n` where the caller
+    /// has it.
+    pub fn sample_at(&self, site: Option<Site>, p: Vec3, n: Vec3, u: f32) -> (usize, f32, f32) {
+        if let Some(picked) = self.cache.as_ref().and_then(|c| c.sample_at(site.unwrap_or_else(|| c.site(p, n)), p, n, u)) {
             return picked;
         }
         if self.spread() {

@@ -48,6 +48,7 @@ use crate::shading::{self, Barycentric};
 use crate::scene::{Scene, Triangle};
 use crate::parallelogram::Parallelogram;
 use crate::portals::Portals;
+use crate::light_cache::Site;
 use crate::light_tree::{Cone, LightTree, TreeLight};
 use crate::softbox::{Clip, Reach, RoundSoftbox, Softbox};
 use crate::spherical_triangle::{self, SphericalTriangle};
@@ -799,6 +800,20 @@ impl Lights {
     /// waits for it.
     #[inline(always)]
     pub fn pick(&self, p: Vec3, n: Vec3, u_pick: f32, mis: bool) -> Option<Picked> {
+        self.pick_at(None, p, n, u_pick, mis)
+    }
+
+    /// Where a pick at `p` and `n` reads the local lights' grid, where
+    /// they have one, its lines asked for: for `pick_at` once the vertex's
+    /// BSDF is set up (light_cache.rs).
+    #[inline(always)]
+    pub fn pick_site(&self, p: Vec3, n: Vec3) -> Option<Site> {
+        self.tree.as_ref().and_then(|tree| tree.tree.site_fetched(p, n))
+    }
+
+    /// `pick`, with `pick_site(p, n)`'s site where the caller has it.
+    #[inline(always)]
+    pub fn pick_at(&self, site: Option<Site>, p: Vec3, n: Vec3, u_pick: f32, mis: bool) -> Option<Picked> {
         if self.is_empty() {
             return None;
         }
@@ -830,7 +845,7 @@ impl Lights {
         // (None: by power, the same for every emitter of one radiance).
         let (pick, density) = match &self.tree {
             Some(tree) => {
-                let (item, probability, rest) = tree.tree.sample(p, n, u_local);
+                let (item, probability, rest) = tree.tree.sample_at(site, p, n, u_local);
                 match tree.items[item] {
                     TreeItem::Punctual(index) => {
                         let probability = local * probability;
