@@ -78,6 +78,25 @@ pub struct Site {
     axis: Option<usize>,
 }
 
+/// What a pick at a site reads: the cell's running sums for the axis, or
+/// the cell's terms.
+enum Read<'a> {
+    Ends(&'a [f32; MAX_LIGHTS]),
+    Cell(&'a Cell),
+}
+
+impl Site {
+    /// What a pick here reads of `tables`; None outside the grid.
+    #[inline(always)]
+    fn read(self, tables: &Tables) -> Option<Read<'_>> {
+        let k = self.cell?;
+        Some(match self.axis {
+            Some(axis) => Read::Ends(&tables.axis_ends.get(k)?[axis]),
+            None => Read::Cell(tables.cells.get(k)?),
+        })
+    }
+}
+
 /// Every light's terms in one cell, a lane each (light k in lane k).
 #[derive(Clone, Copy)]
 struct Cell {
@@ -178,23 +197,6 @@ impl LightCache {
         rayon::current_thread_index().and_then(|i| self.copies.get(i)).unwrap_or(&self.copies[0])
     }
 
-    #[inline(always)]
-    fn cell<'a>(&self, tables: &'a Tables, p: Vec3) -> Option<&'a Cell> {
-        tables.cells.get(self.index(p)?)
-    }
-
-    /// The running sums of the parts at `p` for normal `n` where `n` lies
-    /// along an axis and the table has it: Some(None) outside the grid.
-    #[inline(always)]
-    fn along_axis<'a>(&self, tables: &'a Tables, p: Vec3, n: Vec3) -> Option<Option<&'a [f32; MAX_LIGHTS]>> {
-        let axis_ends = &tables.axis_ends;
-        if axis_ends.is_empty() {
-            return None;
-        }
-        let axis = axis_of(n)?;
-        Some(self.index(p).and_then(|k| axis_ends.get(k)).map(|ends| &ends[axis]))
-    }
-
     /// Where a pick at `p` and `n` reads the tables (`sample_at`).
     #[inline(always)]
     pub fn site(&self, p: Vec3, n: Vec3) -> Site {
@@ -208,20 +210,10 @@ impl LightCache {
     #[inline]
     pub fn site_fetched(&self, p: Vec3, n: Vec3) -> Site {
         let site = self.site(p, n);
-        if let Some(k) = site.cell {
-            let tables = self.tables();
-            match site.axis {
-                Some(axis) => {
-                    if let Some(ends) = tables.axis_ends.get(k) {
-                        crate::memory::prefetch(&ends[axis]);
-                    }
-                }
-                None => {
-                    if let Some(cell) = tables.cells.get(k) {
-                        crate::memory::prefetch(cell);
-                    }
-                }
-            }
+        match site.read(self.tables()) {
+            Some(Read::Ends(ends)) => crate::memory::prefetch(ends),
+            Some(Read::Cell(cell)) => crate::memory::prefetch(cell),
+            None => {}
         }
         site
     }
@@ -260,12 +252,11 @@ impl LightCache {
     /// `sample` where `site` is `site(p, n)`'s.
     #[inline]
     pub fn sample_at(&self, site: Site, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
-        let tables = self.tables();
-        let k = site.cell?;
-        if let Some(axis) = site.axis {
-            return sample_ends(&tables.axis_ends.get(k)?[axis], u);
-        }
-        let (parts, sums, total) = self.parts(tables.cells.get(k)?, p, n)?;
+        let cell = match site.read(self.tables())? {
+            Read::Ends(ends) => return sample_ends(ends, u),
+            Read::Cell(cell) => cell,
+        };
+        let (parts, sums, total) = self.parts(cell, p, n)?;
         let group_starts = [0.0, sums[0], sums[0] + sums[1], (sums[0] + sums[1]) + sums[2]];
         let (group, offset) = pick(&sums, &group_starts, u * total);
         let (lane, offset) = pick(&parts[group], &starts(&parts[group]).0, offset);
@@ -277,13 +268,14 @@ impl LightCache {
     /// None where the tree picks.
     #[inline]
     pub fn probability(&self, light: usize, p: Vec3, n: Vec3) -> Option<f32> {
-        let tables = self.tables();
-        if let Some(ends) = self.along_axis(tables, p, n) {
-            let ends = ends?;
-            let total = valid_total(ends)?;
-            return Some((ends[light] - start_of(ends, light)) / total);
-        }
-        let (parts, _, total) = self.parts(self.cell(tables, p)?, p, n)?;
+        let cell = match self.site(p, n).read(self.tables())? {
+            Read::Ends(ends) => {
+                let total = valid_total(ends)?;
+                return Some((ends[light] - start_of(ends, light)) / total);
+            }
+            Read::Cell(cell) => cell,
+        };
+        let (parts, _, total) = self.parts(cell, p, n)?;
         Some(parts[light / WIDTH][light % WIDTH] / total)
     }
 }

@@ -198,7 +198,7 @@ impl PunctualLight {
     /// `incident` for a sized sun whose `SunDisk` is `disk`.
     pub fn sun_incident(&self, disk: &SunDisk, u: Vec2) -> Incident {
         let wi = cone_sample_in(&disk.frame, disk.one_minus_cos, u);
-        Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * disk.scale, pdf: cone_pdf(disk.one_minus_cos) }
+        Incident { wi, distance: f32::INFINITY, irradiance: self.intensity * disk.scale, pdf: disk.pdf() }
     }
 
     /// The start of a light subpath (light_paths.rs): a direction
