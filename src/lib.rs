@@ -11,6 +11,7 @@ pub mod bsdf;
 pub mod bvh_collapse;
 pub mod camera;
 pub mod camera_hits;
+pub mod cpu;
 pub mod caustic_guide;
 pub mod console;
 pub mod environment;
