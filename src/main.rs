@@ -267,7 +267,7 @@ fn main() {
     // First, before code compiled for the build's instruction sets runs.
     let missing = glint::cpu::missing_features();
     if !missing.is_empty() {
-        glint::stderr_line!("error: this CPU lacks {}, which this build of glint uses (it targets x86-64-v2, as Blender 4.5 does); build it for this CPU with RUSTFLAGS=\"-C target-cpu=native\" cargo build --release", missing.join(", "));
+        glint::stderr_line!("error: this CPU lacks {}, which this build of glint was compiled to use (the project builds for x86-64-v2, as Blender 4.5 does); build it for this CPU with RUSTFLAGS=\"-C target-cpu=native\" cargo build --release", missing.join(", "));
         std::process::exit(1);
     }
     let cli = Cli::parse();
