@@ -68,6 +68,7 @@ fn main() -> anyhow::Result<()> {
         ("light, depths 3-", only(Strategy::Light).with_depths(3, u32::MAX)),
         ("connection", only(Strategy::Connection)),
         ("tracing", only(Strategy::Tracing)),
+        ("merge", only(Strategy::Merge)),
     ];
     for (name, strategies) in parts {
         let imgs = images(strategies);

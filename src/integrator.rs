@@ -71,7 +71,8 @@ use crate::rng::Rng;
 use crate::sampling::Frame;
 use crate::scene::Scene;
 use crate::shading::{self, Barycentric};
-use crate::strategies::Strategy;
+use crate::photons::Photons;
+use crate::strategies::{Strategies, Strategy};
 use crate::environment;
 use glam::Vec2;
 use crate::Vec3;
@@ -1225,6 +1226,44 @@ fn emission_seen(ctx: &Context, triangle: u32, le: Vec3, t: f32, d: Vec3, cos_li
     le * from.weight3(mis, || ctx.lights.pdf_emitter(ctx.scene, triangle, from.p, from.light_side, from.p + d * t, t * t, cos_light, mis), q)
 }
 
+/// The light of the photons around camera vertex `si` (BSDF `bsdf`,
+/// outgoing direction `wo` in its frame), a vertex deeper than x1 that
+/// no connection or splat joins to a light subpath: the path's z, or one
+/// reached through a delta lobe. The density estimate
+///
+///   Σ f(wo, wi_p) · α_p · (|ns·wi_p| / |ng·wi_p|) / (N π r²)
+///
+/// over photons p within r that arrived on the side the camera sees and
+/// make paths of at most `room` more scattering events, each MIS-weighted
+/// against the BSDF sample from `si` back through the same delta lobes,
+/// the one other strategy that makes the path: p_bsdf / p_merge =
+/// pdf(wo → wi_p)·back_p / (N π r² · generated_p), as light tracing's at
+/// x1 with the disk's area in place of 1 / p_camera (`Through` on the
+/// camera side counts N r² where light tracing counts n_T / (π p_camera)).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn merged<B: Bsdf>(si: &SurfaceHit, bsdf: &B, wo: Vec3, photons: &Photons, room: u32, depth: u32, strategies: Strategies) -> Vec3 {
+    let disk = photons.subpaths * std::f32::consts::PI * photons.radius * photons.radius;
+    let mut sum = Vec3::ZERO;
+    photons.near(si.p, |v| {
+        let cos_in = v.to_prev.dot(si.ng);
+        if v.depth > room || !(cos_in > 0.0 && v.ng.dot(si.ng) > 0.0) || !strategies.keeps(Strategy::Merge, depth + v.depth) {
+            return;
+        }
+        let wi = si.frame.to_local(v.to_prev);
+        if !(wi.z > 0.0) {
+            return;
+        }
+        let (f, pdf) = bsdf.evaluate(wo, wi);
+        let ratio = pdf * v.back / (disk * v.generated);
+        let value = f * v.alpha * (wi.z / (cos_in * (1.0 + ratio * ratio)));
+        if value.is_finite() {
+            sum += value;
+        }
+    });
+    sum / disk
+}
+
 /// Light vertex `v`'s light, reaching camera vertex `si` (BSDF `bsdf`,
 /// outgoing direction `wo` in its frame) along one connection
 /// (light_paths.rs), `scale` times (the vertices it stands for),
@@ -1409,6 +1448,7 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
 ) -> (Vec3, f32) {
     let max_depth = settings.max_depth;
     let guide = light_vertices.and_then(|v| v.guide.as_deref());
+    let photons = light_vertices.and_then(|v| v.photons.as_ref());
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (camera.origin, camera.dir);
@@ -1541,6 +1581,10 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
         let after_z = z_depth.map_or(0, |z| depth - z);
         let joins = from.chain > 0.0 && area_pdf > 0.0 && carries_light_paths(&si.surface) && after_z <= max_vertex_depth;
         let connects = (AREA || PUNCTUAL) && z_depth.is_none() && depth + 2 <= max_depth && light_vertices.is_some() && connects_from(&si.surface);
+        // The photons around a vertex no other strategy joins to the light
+        // beyond it through delta lobes: z deeper than x1, or a vertex
+        // after a delta lobe (`merged`).
+        let merges = photons.filter(|_| depth > 0 && media.is_empty() && (connects || (from.delta && connects_from(&si.surface))));
         if depth == 0 && connects && subpaths_traced > 0.0 {
             let p_camera = density.at(d.dot(si.ng).abs(), t2);
             tracing_over = if p_camera > 0.0 && p_camera.is_finite() { subpaths_traced * mis_scale / p_camera } else { 0.0 };
@@ -1602,6 +1646,9 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
                 }
             }
         }
+        if let Some(photons) = merges {
+            l += beta * merged(&si, &bsdf, wo, photons, max_depth - depth, depth, settings.strategies);
+        }
         let Some(Step { sample: s, wi, origin, beta: next_beta }) = step else { break };
         beta = next_beta;
         // Light subpaths store no vertex inside an absorbing medium
@@ -1653,6 +1700,11 @@ pub fn radiance<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS: bo
                 let start = Through { bsdf_pdf: s.pdf, connection: 0.0, tracing: 0.0, cos: wi.dot(si.ng).abs(), connection_room: 0, tracing_room: max_depth.saturating_sub(2).saturating_sub(depth), passed: 0, refractions: 0 };
                 if depth == 0 && tracing_over > 0.0 {
                     Some(Through { tracing: tracing_over / (std::f32::consts::PI * mis_scale), ..start })
+                } else if let Some(photons) = merges {
+                    // The vertex merges with the photons that landed
+                    // around it (`merged`): N r² in light tracing's
+                    // n_T / (π p_cam).
+                    Some(Through { tracing: photons.subpaths * photons.radius * photons.radius, tracing_room: (max_depth - depth).saturating_sub(1), ..start })
                 } else {
                     parts.filter(|_| connect > 0.0).map(|(c, ratio)| Through { connection: c, tracing: c * ratio, connection_room: max_vertex_depth - after_z, tracing_room: if ratio > 0.0 { start.tracing_room } else { 0 }, ..start })
                 }

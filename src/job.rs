@@ -453,6 +453,7 @@ pub fn prepare(scene_file: Option<&Path>, options: &JobOptions, extras: SceneExt
         light_paths,
         light_tracing: true,
         caustic_guide: true,
+        merge: true,
         strategies: Default::default(),
         transparent: options.transparent.unwrap_or(false),
         transparent_glass: options.transparent_glass,

@@ -32,6 +32,7 @@ pub mod output;
 pub mod panorama;
 pub mod pixel_filter;
 pub mod parallelogram;
+pub mod photons;
 pub mod progressive;
 pub mod portals;
 pub mod punctual;

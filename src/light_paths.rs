@@ -60,9 +60,10 @@
 use crate::bsdf::Bsdf;
 use crate::caustic_guide::{Aim, Arrival, CausticGuide};
 use crate::light_tracing::{LightTracing, Splat};
+use crate::photons::Photons;
 use std::sync::Arc;
 use crate::lights::{EmissionSample, PointEmission, Start};
-use crate::integrator::{bsdf_at, bsdf_on, surface_facing, RayCounts, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL};
+use crate::integrator::{bsdf_at, bsdf_on, connects_from, surface_facing, RayCounts, same_side, shading_normal_for, Context, SurfaceHit, CONNECTIONS, RR_MAX_SURVIVAL};
 use crate::scene::Scene;
 use crate::shading::Barycentric;
 use crate::material::Surface;
@@ -165,6 +166,12 @@ impl ConnectionVertex {
         }
     }
 
+    /// A vertex at `p` and nothing more, for tests of what sorts them.
+    #[cfg(test)]
+    pub(crate) fn at(p: Vec3) -> Self {
+        ConnectionVertex { p, ng: Vec3::Y, to_prev: Vec3::Y, alpha: Vec3::ONE, p_error: glam::Vec3::ZERO, ns: glam::Vec3::ZERO, triangle: 0, material: 0, b: [0.0; 2], generated: 1.0, back: 1.0, prefix: 1.0, to_unidirectional: 0.0, depth: 1, front_face: true, first: true, sampled: false }
+    }
+
     pub fn p_error(&self) -> Vec3 {
         self.p_error.into()
     }
@@ -200,7 +207,15 @@ pub struct LightVertices {
     /// Where camera paths look for caustics (caustic_guide.rs); None but in
     /// scenes whose subpaths go through glass and mirrors.
     pub guide: Option<Arc<CausticGuide>>,
+    /// Where this sample index's subpaths landed beyond delta lobes alone,
+    /// for camera vertices to merge with (photons.rs); None where none
+    /// did, or merging is off.
+    pub photons: Option<Photons>,
 }
+
+/// What one task of `for_samples` traced: its vertices, its photons
+/// (photons.rs), its splats and its rays.
+type TaskTraced = (Vec<ConnectionVertex>, Vec<ConnectionVertex>, Vec<Splat>, RayCounts);
 
 /// Light subpaths per sample index at most; fewer on small images, which
 /// have fewer camera vertices to share them.
@@ -316,20 +331,27 @@ impl LightVertices {
         max_depth: u32,
         mis_scale: f32,
         guide: Option<&Arc<CausticGuide>>,
+        merge: bool,
     ) -> (Vec<Self>, Vec<Vec<Splat>>, RayCounts) {
         let max_vertex_depth = max_depth.saturating_sub(1);
         let batch = batch.start..batch.end.min(Self::subpaths(tracing, count));
         let blocks = batch.len().div_ceil(BLOCK as usize).max(1);
         let tasks: Vec<(u32, u32)> = samples.clone().flat_map(|s| batch.clone().step_by(BLOCK as usize).map(move |j0| (s, j0))).collect();
-        let traced: Vec<(Vec<ConnectionVertex>, Vec<Splat>, RayCounts)> = tasks
+        // Every subpath of the batch keeps its photons: a camera vertex
+        // merges with all of them, where a connection takes one vertex.
+        let merge = merge && ctx.delta_starts();
+        let traced: Vec<TaskTraced> = tasks
             .into_par_iter()
             .map(|(s, j0)| {
-                let (mut vertices, mut splats, mut rays) = (Vec::new(), Vec::new(), RayCounts::default());
+                let (mut vertices, mut photons, mut splats, mut rays) = (Vec::new(), Vec::new(), Vec::new(), RayCounts::default());
                 for j in j0..(j0 + BLOCK).min(batch.end) {
                     let mut rng = subpath_rng(seed, j, s as u64);
                     subpath::<B>(ctx, prepared, None, &mut rng, max_vertex_depth, &mut rays.bounce, &mut |v, rng, _| {
                         if j < count {
                             vertices.push(ConnectionVertex::of(v));
+                        }
+                        if merge && v.first && !v.sampled && connects_from(&v.hit.surface) {
+                            photons.push(ConnectionVertex::of(v));
                         }
                         if let Some(t) = tracing.filter(|t| j < t.subpaths as u32) {
                             t.splat::<B>(ctx, prepared, v, rng, &mut rays.shadow, &mut splats);
@@ -337,17 +359,24 @@ impl LightVertices {
                         true
                     });
                 }
-                (vertices, splats, rays)
+                (vertices, photons, splats, rays)
             })
             .collect();
         let mut out: Vec<Self> = samples
-            .map(|_| LightVertices { vertices: Vec::new(), traced: count, mis_scale, max_vertex_depth, tracing: tracing.map_or(0.0, |t| t.subpaths), guide: guide.cloned() })
+            .clone()
+            .map(|_| LightVertices { vertices: Vec::new(), traced: count, mis_scale, max_vertex_depth, tracing: tracing.map_or(0.0, |t| t.subpaths), guide: guide.cloned(), photons: None })
             .collect();
         let (mut splats, mut rays) = (vec![Vec::new(); out.len()], RayCounts::default());
-        for (i, (vertices, s, r)) in traced.into_iter().enumerate() {
+        let mut photons = vec![Vec::new(); out.len()];
+        for (i, (vertices, p, s, r)) in traced.into_iter().enumerate() {
             out[i / blocks].vertices.extend(vertices);
+            photons[i / blocks].extend(p);
             splats[i / blocks].extend(s);
             rays.add(&r);
+        }
+        for ((vertices, photons), sample) in out.iter_mut().zip(photons).zip(samples) {
+            let radius = crate::photons::radius(&photons, sample);
+            vertices.photons = Photons::new(photons, radius, batch.len() as u32);
         }
         (out, splats, rays)
     }
@@ -1178,7 +1207,7 @@ mod tests {
         let lens = scene.camera.lens(32, 32);
         let filter = PixelFilter::default();
         let tracing = LightTracing { lens: &lens, filter: &filter, width: 32, height: 32, subpaths: 3000.0, mis_scale: 0.7, strategies: Default::default() };
-        let trace = |batch: Range<u32>| LightVertices::for_samples::<crate::bsdf::principled::PrincipledBsdf>(&ctx, &prepared, Some(&tracing), 5, 3..5, batch, 700, 8, 0.7, None);
+        let trace = |batch: Range<u32>| LightVertices::for_samples::<crate::bsdf::principled::PrincipledBsdf>(&ctx, &prepared, Some(&tracing), 5, 3..5, batch, 700, 8, 0.7, None, true);
         let (whole, whole_splats, whole_rays) = trace(0..3000);
         let (first, mut splats, mut rays) = trace(0..1500);
         let (rest, rest_splats, rest_rays) = trace(1500..3000);

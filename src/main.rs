@@ -235,7 +235,9 @@ struct RenderArgs {
     /// Add only these strategies' light to the image, to see which carries
     /// the noise: camera (what the camera ray sees), bsdf (light a BSDF
     /// sample reaches), light (light sampling), connection, tracing (light
-    /// tracing). Images of strategies apart add up to the whole [default: all].
+    /// tracing), merge (photons around a vertex seen through glass or in a
+    /// mirror). Images of strategies apart add up to the whole [default:
+    /// all].
     #[arg(long, value_parser = Strategies::parse_list)]
     strategies: Option<Strategies>,
     /// Add only the light of paths with this many scattering events: N,
@@ -247,6 +249,12 @@ struct RenderArgs {
     /// paths); off, to measure what that gives [default: on].
     #[arg(long, value_parser = ["on", "off"])]
     caustic_guide: Option<String>,
+    /// Camera vertices seen through smooth glass or in a mirror merge with
+    /// the photons light subpaths landed around them (scenes with such
+    /// surfaces and light paths); off, to measure what that gives
+    /// [default: on].
+    #[arg(long, value_parser = ["on", "off"])]
+    merge: Option<String>,
 }
 
 #[derive(Args)]
@@ -310,6 +318,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let (min, max) = args.depths.unwrap_or((0, u32::MAX));
     settings.strategies = args.strategies.unwrap_or_default().with_depths(min, max);
     settings.caustic_guide = args.caustic_guide.as_deref() != Some("off");
+    settings.merge = args.merge.as_deref() != Some("off");
     let scene_name = args.scene.as_ref().map_or(glint::DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string());
     for w in &scene.warnings {
         glint::stderr_line!("warning: {scene_name}: {w}");
@@ -407,6 +416,9 @@ fn render(args: RenderArgs) -> Result<()> {
         let (setup, subpaths, paths) = (phases.setup.as_secs_f64(), phases.light_subpaths.as_secs_f64(), phases.camera_paths.as_secs_f64());
         glint::stderr_line!("time by phase: set-up {setup:.5} s (what the caustic guide, MIS scale, camera rays' bins and the sums' pages add beside the first light subpaths), light subpaths {subpaths:.5} s, camera paths {paths:.5} s, the rest {:.5} s (the film, passes)",
             (seconds - setup - subpaths - paths).max(0.0));
+        if let (photons, indices @ 1.., Some(radius)) = stats.photons {
+            glint::stderr_line!("caustic photons: {} a sample index, merged within {radius:.4} m at the first (shrinking as i^-1/6)", photons / indices as u64);
+        }
         if let Some((directions, cells, edge)) = stats.caustic_guide {
             glint::stderr_line!("caustic guide: {directions} directions in {cells} cells of {edge:.3} m, made in {:.5} s beside the bins and the first light subpaths", phases.caustic_guide.as_secs_f64());
         }

@@ -98,7 +98,7 @@ mod tests {
     }
 
     fn settings(spp: u32) -> RenderSettings {
-        RenderSettings { width: 24, height: 24, spp, max_depth: 4, seed: 3, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, caustic_guide: true, strategies: Default::default(), transparent: false, transparent_glass: None, adaptive: None, pixel_filter: Default::default() }
+        RenderSettings { width: 24, height: 24, spp, max_depth: 4, seed: 3, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, caustic_guide: true, merge: true, strategies: Default::default(), transparent: false, transparent_glass: None, adaptive: None, pixel_filter: Default::default() }
     }
 
     #[test]

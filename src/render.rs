@@ -92,6 +92,10 @@ pub struct RenderSettings {
     /// Let camera paths look for caustics where light subpaths found them
     /// (caustic_guide.rs), in scenes with smooth glass or mirrors.
     pub caustic_guide: bool,
+    /// Let camera vertices seen through glass or in a mirror merge with
+    /// the photons light subpaths landed there (photons.rs), in scenes
+    /// with smooth glass or mirrors.
+    pub merge: bool,
     /// Whose light reaches the image: all of it but when taking a render
     /// apart (strategies.rs).
     pub strategies: Strategies,
@@ -209,6 +213,10 @@ pub struct PassStats {
     /// The caustic guide's directions, cells and cell edge (m), where the
     /// render had one (`CausticGuide::summary`).
     pub caustic_guide: Option<(usize, usize, f32)>,
+    /// Caustic photons (photons.rs): their number over the sample indices
+    /// that kept some, those indices, and the merge radius (m) of the
+    /// first of them.
+    pub photons: (u64, u32, Option<f32>),
 }
 
 /// Where a pass's wall time went, phase by phase (`--stats`): what a
@@ -237,6 +245,7 @@ impl PassStats {
         self.phases.light_subpaths += o.phases.light_subpaths;
         self.phases.caustic_guide += o.phases.caustic_guide;
         self.caustic_guide = self.caustic_guide.or(o.caustic_guide);
+        self.photons = (self.photons.0 + o.photons.0, self.photons.1 + o.photons.1, self.photons.2.or(o.photons.2));
         self.phases.camera_paths += o.phases.camera_paths;
     }
 }
@@ -360,7 +369,9 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
     // the camera paths.
     let trace_lights = |range: Range<u32>, batch: Range<u32>, mis_scale: f32, guide: Option<&Arc<CausticGuide>>| {
         let started = Instant::now();
-        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale, guide);
+        // Photons from the first batch alone, whose vertices are kept.
+        let merge = settings.merge && batch.start == 0;
+        let traced = LightVertices::for_samples::<B>(ctx, &prepared, tracing_for(mis_scale).as_ref(), settings.seed, range, batch, per_sample, settings.max_depth, mis_scale, guide, merge);
         (traced, started.elapsed())
     };
     // Camera rays' first hits found without the BVH where that is
@@ -471,6 +482,9 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
                 merge(splats, &rays);
             }
             total.phases.light_subpaths += took + rest_started.elapsed();
+            for photons in vertices.iter().filter_map(|v| v.photons.as_ref()) {
+                total.photons = (total.photons.0 + photons.len() as u64, total.photons.1 + 1, total.photons.2.or(Some(photons.radius)));
+            }
             Some(vertices)
         } else {
             None

@@ -25,10 +25,12 @@ pub enum Strategy {
     Connection,
     /// A light subpath's vertex joined to the camera (light_tracing.rs).
     Tracing,
+    /// A camera vertex merged with the photons around it (photons.rs).
+    Merge,
 }
 
 impl Strategy {
-    pub const ALL: [Strategy; 5] = [Strategy::Camera, Strategy::Bsdf, Strategy::Light, Strategy::Connection, Strategy::Tracing];
+    pub const ALL: [Strategy; 6] = [Strategy::Camera, Strategy::Bsdf, Strategy::Light, Strategy::Connection, Strategy::Tracing, Strategy::Merge];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -37,6 +39,7 @@ impl Strategy {
             Strategy::Light => "light",
             Strategy::Connection => "connection",
             Strategy::Tracing => "tracing",
+            Strategy::Merge => "merge",
         }
     }
 
@@ -61,7 +64,7 @@ impl Default for Strategies {
 
 impl Strategies {
     /// Everything: a normal render.
-    pub const ALL: Strategies = Strategies { kinds: 0b11111, min_depth: 0, max_depth: u32::MAX };
+    pub const ALL: Strategies = Strategies { kinds: 0b111111, min_depth: 0, max_depth: u32::MAX };
 
     /// Only these strategies, at every depth.
     pub fn only(kinds: &[Strategy]) -> Self {
@@ -135,7 +138,7 @@ mod tests {
     #[test]
     fn lists_and_depth_ranges_parse_and_bad_ones_are_named() {
         assert_eq!(Strategies::parse_list("bsdf, light").unwrap(), Strategies::only(&[Strategy::Bsdf, Strategy::Light]));
-        assert!(Strategies::parse_list("bsdf,photons").unwrap_err().contains("`photons`"));
+        assert!(Strategies::parse_list("bsdf,photon").unwrap_err().contains("`photon`"));
         assert_eq!(Strategies::parse_depths("2").unwrap(), (2, 2));
         assert_eq!(Strategies::parse_depths("2-4").unwrap(), (2, 4));
         assert_eq!(Strategies::parse_depths("3-").unwrap(), (3, u32::MAX));

@@ -138,7 +138,7 @@ mod tests {
         let scene = crate::loader::load_bytes(crate::DEFAULT_SCENE.as_bytes(), None, "cornell", &crate::loader::LoadOptions::default()).unwrap();
         let (mut ctx, _) = Context::new(&scene);
         ctx.ray_log = Some(RayLog::default());
-        let settings = RenderSettings { width: 16, height: 16, spp: 2, max_depth: 8, seed: 1, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, caustic_guide: true, strategies: Default::default(), transparent: false, transparent_glass: None, adaptive: None, pixel_filter: Default::default() };
+        let settings = RenderSettings { width: 16, height: 16, spp: 2, max_depth: 8, seed: 1, mis: true, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, caustic_guide: true, merge: true, strategies: Default::default(), transparent: false, transparent_glass: None, adaptive: None, pixel_filter: Default::default() };
         let mut film = Film::new(16, 16);
         let stats = render_pass(&ctx, &settings, &mut film, 0..2, &AtomicBool::new(false), &|_| {}).unwrap();
         let rays = ctx.ray_log.as_ref().unwrap().take();

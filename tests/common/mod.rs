@@ -46,7 +46,7 @@ pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> (Vec<
 }
 
 pub fn settings(width: u32, height: u32, spp: u32, max_depth: u32, seed: u64) -> RenderSettings {
-    RenderSettings { width, height, spp, max_depth, seed, mis: false, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, caustic_guide: true, strategies: Default::default(), transparent: false, transparent_glass: None, adaptive: None, pixel_filter: Default::default() }
+    RenderSettings { width, height, spp, max_depth, seed, mis: false, bsdf: Default::default(), features: Default::default(), sampler: Default::default(), light_paths: LightPaths::On, light_tracing: true, caustic_guide: true, merge: true, strategies: Default::default(), transparent: false, transparent_glass: None, adaptive: None, pixel_filter: Default::default() }
 }
 
 /// Two triangles of the square |x − cx|, |z − cz| ≤ half in the plane
