@@ -69,21 +69,18 @@ impl Photons {
         let inv_cell = 1.0 / (2.0 * radius);
         let buckets = photons.len().next_power_of_two().max(16);
         let mask = (buckets - 1) as u32;
-        let keys: Vec<usize> = photons.iter().map(|v| bucket(cell_of(v.p, inv_cell), mask)).collect();
+        let key = |v: &ConnectionVertex| bucket(cell_of(v.p, inv_cell), mask);
+        // Stable: a bucket's photons stay in the order they were traced.
+        let mut photons = photons;
+        photons.sort_by_key(key);
         let mut starts = vec![0u32; buckets + 1];
-        for &k in &keys {
-            starts[k + 1] += 1;
+        for v in &photons {
+            starts[key(v) + 1] += 1;
         }
         for b in 0..buckets {
             starts[b + 1] += starts[b];
         }
-        let mut next = starts.clone();
-        let mut sorted = photons.clone();
-        for (v, &k) in photons.iter().zip(&keys) {
-            sorted[next[k] as usize] = *v;
-            next[k] += 1;
-        }
-        Some(Photons { photons: sorted, starts, inv_cell, radius, subpaths: subpaths as f32 })
+        Some(Photons { photons, starts, inv_cell, radius, subpaths: subpaths as f32 })
     }
 
     /// Calls `each` once for every photon within the radius of `p`.

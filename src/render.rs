@@ -245,8 +245,14 @@ impl PassStats {
         self.phases.light_subpaths += o.phases.light_subpaths;
         self.phases.caustic_guide += o.phases.caustic_guide;
         self.caustic_guide = self.caustic_guide.or(o.caustic_guide);
-        self.photons = (self.photons.0 + o.photons.0, self.photons.1 + o.photons.1, self.photons.2.or(o.photons.2));
+        self.count_photons(o.photons);
         self.phases.camera_paths += o.phases.camera_paths;
+    }
+
+    /// Adds caustic photons (their number, the sample indices that kept
+    /// them, a merge radius) to `photons`, whose radius stays the first's.
+    pub fn count_photons(&mut self, (photons, indices, radius): (u64, u32, Option<f32>)) {
+        self.photons = (self.photons.0 + photons, self.photons.1 + indices, self.photons.2.or(radius));
     }
 }
 
@@ -483,7 +489,7 @@ fn render_pass_with<B: Bsdf, const AREA: bool, const PUNCTUAL: bool, const LAMPS
             }
             total.phases.light_subpaths += took + rest_started.elapsed();
             for photons in vertices.iter().filter_map(|v| v.photons.as_ref()) {
-                total.photons = (total.photons.0 + photons.len() as u64, total.photons.1 + 1, total.photons.2.or(Some(photons.radius)));
+                total.count_photons((photons.len() as u64, 1, Some(photons.radius)));
             }
             Some(vertices)
         } else {

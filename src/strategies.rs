@@ -64,7 +64,7 @@ impl Default for Strategies {
 
 impl Strategies {
     /// Everything: a normal render.
-    pub const ALL: Strategies = Strategies { kinds: 0b111111, min_depth: 0, max_depth: u32::MAX };
+    pub const ALL: Strategies = Strategies { kinds: (1 << Strategy::ALL.len()) - 1, min_depth: 0, max_depth: u32::MAX };
 
     /// Only these strategies, at every depth.
     pub fn only(kinds: &[Strategy]) -> Self {
